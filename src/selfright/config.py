@@ -1,0 +1,154 @@
+"""Typed, frozen configuration for every part of selfright.
+
+Every field carries its unit. Defaults are the benchmark's standard settings; change them
+only deliberately, since results are comparable only under the same configuration (the
+resolved configuration is written into every ``summary.json``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+BODY_LENGTH_M = 0.5
+"""Unitree A1 overall length (m): the benchmark's unit for drop height and roughness bound."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class TerrainConfig:
+    """Geometry of one terrain tile (a heightfield)."""
+
+    tile_size_m: float = 8.0
+    """Side of the square heightfield (m). Large, so a rolling robot stays on it."""
+    spawn_size_m: float = 2.0
+    """Side of the central square in which robots are dropped (m); x, y ~ U(0.1, 0.9) of it."""
+    resolution_m: float = 0.05
+    """Grid spacing of the heightfield (m). Also sets N/A in the roughness metric R."""
+    num_slope_levels: int = 11
+    """Slope levels 0..10 = 0 %, 10 %, ..., 100 % grade."""
+    slope_step_pct: float = 10.0
+    """Grade added per slope level (%)."""
+    num_roughness_levels: int = 20
+    """Roughness levels 0..19; level 0 is a perfect plane."""
+    max_roughness_extent_m: float = BODY_LENGTH_M
+    """Peak-to-peak vertical extent of the noise at the top roughness level (m); never exceeded."""
+    noise_wavelength_m: float = 0.5 * BODY_LENGTH_M
+    """Spacing of the random lattice of the roughness noise (m): half a body length (seed §V)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ContextConfig:
+    """Physical factors of one evaluation context beyond the tile geometry."""
+
+    friction: float = 1.0
+    """Sliding friction coefficient between the robot and the ground (dimensionless)."""
+    wall_gap_ratio: float | None = None
+    """Confined space: distance between two side walls / body length; ``None`` = no walls."""
+    ground_timeconst_s: float = 0.02
+    """Ground compliance: MuJoCo contact ``solref`` time constant (s); 0.02 = rigid default."""
+    ground_dampratio: float = 1.0
+    """Ground compliance: MuJoCo contact ``solref`` damping ratio (dimensionless)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RobotConfig:
+    """Actuation of the robot model."""
+
+    name: str = "a1"
+    """Robot spec name (see ``selfright.robots``)."""
+    kp: float = 35.0
+    """PD stiffness of every joint (N·m/rad)."""
+    kd: float = 0.5
+    """PD damping of every joint (N·m·s/rad)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimConfig:
+    """Physics stepping."""
+
+    timestep_s: float = 0.005
+    """Physics time step (s)."""
+    control_substeps: int = 4
+    """Physics steps per control step: 4 × 5 ms = 50 Hz control."""
+    solver_iterations: int = 20
+    """Newton solver iterations per physics step."""
+    threads: int = 0
+    """Worker threads of the batched CPU stepper; 0 = one per CPU core."""
+
+    @property
+    def control_dt_s(self) -> float:
+        """Duration of one control step (s)."""
+        return self.timestep_s * self.control_substeps
+
+
+@dataclass(frozen=True, kw_only=True)
+class ActionConfig:
+    """How policy actions become PD joint targets."""
+
+    scale_rad: float = 0.5
+    """Joint target = current joint angle + scale · action (rad per unit action)."""
+    clip: float = 10.0
+    """Actions are clipped to ±clip before scaling (dimensionless)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class FallConfig:
+    """The seed's fall protocol (§V)."""
+
+    drop_height_m: float = BODY_LENGTH_M
+    """Trunk origin starts this high above the highest ground near the spawn point (m)."""
+    settle_s: float = 2.0
+    """Passive settling time after the drop, before the policy starts (s)."""
+    spawn_low: float = 0.1
+    """Spawn x, y ~ U(spawn_low, spawn_high) in units of the spawn square's side."""
+    spawn_high: float = 0.9
+    """See ``spawn_low``."""
+    max_joint_tries: int = 1000
+    """Rejection-sampling attempts for a self-collision-free joint configuration."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class GoalConfig:
+    """The goal set (seed §IV) and the success rule."""
+
+    max_tilt_deg: float = 30.0
+    """Roll and pitch must each be within this of gravity (deg)."""
+    height_fraction: float = 0.8
+    """Trunk height above the ground beneath ≥ this × fully extended leg length."""
+    hold_s: float = 1.0
+    """Success needs the goal set held continuously this long (s)."""
+    episode_s: float = 10.0
+    """Episode limit after settling (s)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class EvalConfig:
+    """Grid evaluation."""
+
+    batch_size: int = 64
+    """Episodes simulated side by side in one batch."""
+    friction: float = 1.0
+    """Ground friction of every cell (dimensionless)."""
+    wall_gap_ratio: float | None = None
+    """Side walls at this gap / body length in every cell; ``None`` = open terrain."""
+    ground_timeconst_s: float = 0.02
+    """Ground contact time constant of every cell (s)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class BenchmarkConfig:
+    """Everything that defines a benchmark run (written resolved into summary.json)."""
+
+    terrain: TerrainConfig = field(default_factory=TerrainConfig)
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    sim: SimConfig = field(default_factory=SimConfig)
+    action: ActionConfig = field(default_factory=ActionConfig)
+    fall: FallConfig = field(default_factory=FallConfig)
+    goal: GoalConfig = field(default_factory=GoalConfig)
+    eval: EvalConfig = field(default_factory=EvalConfig)
+
+
+def to_dict(cfg: Any) -> dict[str, Any]:
+    """Resolved configuration as plain JSON-serialisable data."""
+    return dataclasses.asdict(cfg)

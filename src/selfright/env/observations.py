@@ -1,0 +1,82 @@
+"""Observation groups. Teacher and student differ only by which groups they read.
+
+student (what a real A1 senses): projected gravity (3), IMU angular velocity (3), joint
+    angles relative to the nominal pose (J), joint velocities (J), previous action (J).
+teacher: student + privileged context: slope angle (1) and uphill direction in the body
+    frame (3), ground friction (1), trunk linear velocity in the body frame (3), trunk
+    height above the ground (1), height scan around the trunk (S), and the randomised
+    mass / Kp / Kd factors (3).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+
+from selfright.env.robot_state import RobotState
+
+SCAN_GRID = 5
+"""Height-scan points per side (a SCAN_GRID × SCAN_GRID square)."""
+SCAN_SPACING_M = 0.15
+"""Spacing of the height scan (m), a square of 0.6 m side centred under the trunk."""
+JOINT_VEL_SCALE = 0.1
+"""Joint velocities are multiplied by this to keep observations O(1)."""
+
+
+def scan_offsets() -> np.ndarray:
+    """(S, 2) x-y offsets of the height scan, in the trunk's yaw frame (m)."""
+    r = (np.arange(SCAN_GRID) - (SCAN_GRID - 1) / 2) * SCAN_SPACING_M
+    gx, gy = np.meshgrid(r, r, indexing="ij")
+    return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+def scan_points(rs: RobotState) -> np.ndarray:
+    """(n, S, 2) world x-y of the height-scan points, rotated with the trunk's heading."""
+    heading = rs.rot[:, :, 0].numpy().astype(np.float64)
+    yaw = np.arctan2(heading[:, 1], heading[:, 0])
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    off = scan_offsets()
+    x = rs.pos[:, 0:1].numpy() + c * off[None, :, 0] - s * off[None, :, 1]
+    y = rs.pos[:, 1:2].numpy() + s * off[None, :, 0] + c * off[None, :, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def student_obs(rs: RobotState, nominal: torch.Tensor, prev_action: torch.Tensor) -> torch.Tensor:
+    """(n, 9 + 3J) sensor-only observation."""
+    return torch.cat(
+        [rs.projected_gravity, rs.ang_vel, rs.q - nominal, rs.qd * JOINT_VEL_SCALE, prev_action], dim=-1
+    )
+
+
+def privileged_obs(
+    rs: RobotState, slope_pct: torch.Tensor, friction: torch.Tensor, scan_z: torch.Tensor, factors: torch.Tensor
+) -> torch.Tensor:
+    """(n, 12 + S) privileged context.
+
+    Args:
+        slope_pct: (n,) grade of the tile, rising along world +x (%).
+        friction: (n,) ground friction.
+        scan_z: (n, S) ground heights at the scan points (m, world).
+        factors: (n, 3) mass, Kp and Kd scale factors.
+    """
+    angle = torch.atan(slope_pct / 100.0)
+    uphill_world = torch.zeros(len(angle), 3)
+    uphill_world[:, 0] = torch.cos(angle)
+    uphill_world[:, 2] = torch.sin(angle)
+    uphill_body = torch.einsum("nji,nj->ni", rs.rot, uphill_world)
+    lin_vel_body = torch.einsum("nji,nj->ni", rs.rot, rs.lin_vel)
+    scan_rel = (rs.pos[:, 2:3] - scan_z.to(torch.float64)).float()
+    return torch.cat(
+        [angle[:, None], uphill_body, friction[:, None], lin_vel_body, rs.height[:, None], scan_rel, factors],
+        dim=-1,
+    )
+
+
+def num_scan_points() -> int:
+    return SCAN_GRID * SCAN_GRID
+
+
+def slope_deg(slope_pct: float) -> float:
+    return math.degrees(math.atan(slope_pct / 100.0))

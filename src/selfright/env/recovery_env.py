@@ -1,0 +1,218 @@
+"""The batched self-righting environment: fall protocol resets, PD action mapping, goal-set
+bookkeeping and per-episode metrics. Evaluation drives it directly; training wraps it
+with rewards and domain randomisation (``selfright.train.vecenv``).
+
+Every slot (env) runs on its own ``MjModel`` (shared between slots of the same world unless
+randomised) and its own state row; one ``BatchStepper`` call advances any subset of slots.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import torch
+
+from selfright.config import BenchmarkConfig
+from selfright.env.fall import SelfCollisionChecker, initial_qpos
+from selfright.env.goal import GoalTracker, in_goal_set
+from selfright.env.observations import privileged_obs, scan_points, student_obs
+from selfright.env.robot_state import RobotState, decode
+from selfright.env.world import World
+from selfright.robots import get_robot
+from selfright.sim.batch import BatchStepper, sensor_layout, state_layout
+from selfright.terrain.heightfield import sample_heights
+
+EDGE_MARGIN_M = 0.5
+"""An episode fails once the trunk is this close to the tile's edge (m)."""
+
+
+@dataclass
+class StepOutput:
+    """Result of one control step for the stepped slots ``ids``."""
+
+    ids: np.ndarray
+    """(k,) slot indices stepped."""
+    state: RobotState
+    """Robot quantities after the step, rows aligned with ``ids``."""
+    in_goal: torch.Tensor
+    """(k,) bool, in the goal set now."""
+    succeeded: torch.Tensor
+    """(k,) bool, the hold was completed at this step (success decided)."""
+    failed: torch.Tensor
+    """(k,) bool, diverged or left the tile (episode over, unsuccessful)."""
+    timeout: torch.Tensor
+    """(k,) bool, reached the episode limit without success."""
+    diverged: torch.Tensor
+    """(k,) bool, physics diverged at this step."""
+
+    @property
+    def done(self) -> torch.Tensor:
+        return self.succeeded | self.failed | self.timeout
+
+
+class RecoveryEnv:
+    """``num_envs`` slots over a list of worlds (all of one heightfield size)."""
+
+    def __init__(self, cfg: BenchmarkConfig, worlds: list[World], num_envs: int, threads: int | None = None):
+        if not worlds:
+            raise ValueError("need at least one world")
+        self.cfg = cfg
+        self.robot = get_robot(cfg.robot.name)
+        self.worlds = worlds
+        self.num_envs = num_envs
+        template = worlds[0].model
+        self.stepper = BatchStepper(template, cfg.sim.threads if threads is None else threads)
+        self.sl = state_layout(template)
+        self.so = sensor_layout(template, self.robot)
+        self.checker = SelfCollisionChecker(self.robot)
+        self.heights = np.stack([w.tile.heights for w in worlds])
+        self.res = cfg.terrain.resolution_m
+        self.half_size = cfg.terrain.tile_size_m / 2
+        self.control_dt = cfg.sim.control_dt_s
+        self.episode_steps = int(round(cfg.goal.episode_s / self.control_dt))
+        self.settle_steps = int(round(cfg.fall.settle_s / cfg.sim.timestep_s))
+        self.nominal = torch.tensor(self.robot.nominal_pose, dtype=torch.float32)
+        self._low = self.robot.joint_low
+        self._high = self.robot.joint_high
+        nj = self.robot.num_joints
+        self.world_idx = np.zeros(num_envs, dtype=np.int64)
+        self.models: list[mujoco.MjModel] = [template] * num_envs
+        self.state = np.zeros((num_envs, self.sl.size))
+        self.sens = np.zeros((num_envs, template.nsensordata))
+        self.prev_action = torch.zeros(num_envs, nj)
+        self.step_count = torch.zeros(num_envs, dtype=torch.long)
+        self.start_xy = torch.zeros(num_envs, 2, dtype=torch.float64)
+        self.energy = torch.zeros(num_envs, dtype=torch.float64)
+        self.peak_ang_speed = torch.zeros(num_envs)
+        self.diverged = torch.zeros(num_envs, dtype=torch.bool)
+        self.factors = torch.ones(num_envs, 3)
+        self.friction = torch.ones(num_envs)
+        self.goal = GoalTracker(num_envs, int(round(cfg.goal.hold_s / self.control_dt)))
+
+    # ------------------------------------------------------------------ resets
+    def reset(
+        self,
+        ids: np.ndarray,
+        world_idx: np.ndarray,
+        rngs: list[np.random.Generator],
+        models: list[mujoco.MjModel] | None = None,
+    ) -> None:
+        """Start new episodes in slots ``ids``: fall protocol, drop, passive settling.
+
+        Args:
+            ids: (k,) slots.
+            world_idx: (k,) world of each new episode.
+            rngs: k generators, one per episode (all of its randomness comes from it).
+            models: optional per-slot models (domain randomisation); default: the world's.
+        """
+        ids = np.asarray(ids, dtype=np.int64)
+        if len(ids) == 0:
+            return
+        fall, terrain = self.cfg.fall, self.cfg.terrain
+        nq = self.sl.qpos_joints.stop - 1
+        init = np.zeros((len(ids), self.sl.size))
+        for k, (w, rng) in enumerate(zip(world_idx, rngs)):
+            world = self.worlds[w]
+            qpos = initial_qpos(rng, self.robot, self.checker, world.tile, fall, terrain, world.fixed_spawn_y)
+            init[k, 1 : 1 + nq] = qpos
+        for k, i in enumerate(ids):
+            self.world_idx[i] = world_idx[k]
+            self.models[i] = models[k] if models is not None else self.worlds[world_idx[k]].model
+            self.friction[i] = float(self.worlds[world_idx[k]].context.friction)
+        hold = init[:, self.sl.qpos_joints]
+        states, sens = self.stepper.step([self.models[i] for i in ids], init, hold, self.settle_steps)
+        final = states[:, -1]
+        bad = ~np.isfinite(final).all(axis=1) | (np.abs(final[:, 0] - self.cfg.fall.settle_s) > 1e-6)
+        final[bad] = init[bad]  # keep a finite state; the episode is flagged diverged below
+        self.state[ids] = final
+        self.sens[ids] = sens[:, -1]
+        t = torch.from_numpy(ids)
+        self.diverged[t] = torch.from_numpy(bad)
+        self.start_xy[t] = torch.from_numpy(final[:, 1:3].copy())
+        self.prev_action[t] = 0.0
+        self.step_count[t] = 0
+        self.energy[t] = 0.0
+        self.peak_ang_speed[t] = 0.0
+        self.goal.reset(t)
+
+    # -------------------------------------------------------------- stepping
+    def ground_height(self, ids: np.ndarray, xy: np.ndarray) -> np.ndarray:
+        """(k,) ground height under points ``xy`` (k, 2) on the tiles of slots ``ids``."""
+        return sample_heights(self.heights, self.world_idx[ids], xy, self.res)
+
+    def robot_state(self, ids: np.ndarray) -> RobotState:
+        st = self.state[ids]
+        return decode(st, self.sens[ids], self.ground_height(ids, st[:, 1:3]), self.sl, self.so)
+
+    def targets(self, ids: np.ndarray, actions: torch.Tensor) -> np.ndarray:
+        """PD joint targets (k, J): current angle + scale · clipped action, within joint limits."""
+        a = actions.detach().to(torch.float64).clamp(-self.cfg.action.clip, self.cfg.action.clip).numpy()
+        q = self.state[ids][:, self.sl.qpos_joints]
+        return np.clip(q + self.cfg.action.scale_rad * a, self._low, self._high)
+
+    def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
+        """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""
+        ids = np.arange(self.num_envs) if ids is None else np.asarray(ids, dtype=np.int64)
+        t = torch.from_numpy(ids)
+        ctrl = self.targets(ids, actions)
+        start = self.state[ids]
+        sub = self.cfg.sim.control_substeps
+        states, sens = self.stepper.step([self.models[i] for i in ids], start, ctrl, sub)
+        final = states[:, -1]
+        expected_t = start[:, 0] + sub * self.cfg.sim.timestep_s
+        bad = ~np.isfinite(states).all(axis=(1, 2)) | (np.abs(final[:, 0] - expected_t) > 1e-6)
+        # Mechanical energy drawn by the motors: Σ_substeps Σ_j |τ_j q̇_j| dt.
+        tau = sens[:, :, self.so.actuator_force]
+        qd = states[:, :, self.sl.qvel_joints]
+        power = np.nan_to_num(np.abs(tau * qd).sum(axis=(1, 2)))
+        ang = np.nan_to_num(np.linalg.norm(states[:, :, self.sl.ang_vel], axis=2).max(axis=1))
+        final = np.where(bad[:, None], start, final)
+        self.state[ids] = final
+        self.sens[ids] = np.where(bad[:, None], self.sens[ids], sens[:, -1])
+        self.energy[t] += torch.from_numpy(power * self.cfg.sim.timestep_s)
+        self.peak_ang_speed[t] = torch.maximum(self.peak_ang_speed[t], torch.from_numpy(ang).float())
+        div = torch.from_numpy(bad)
+        self.diverged[t] |= div
+        self.step_count[t] += 1
+        self.prev_action[t] = actions.detach().float().clamp(-self.cfg.action.clip, self.cfg.action.clip)
+
+        rs = self.robot_state(ids)
+        goal = in_goal_set(rs.roll, rs.pitch, rs.feet_contact, rs.height, self.cfg.goal, self.robot.leg_length_m)
+        goal &= ~self.diverged[t]
+        succeeded = self.goal.update(t, goal, self.step_count[t], rs.pos[:, :2])
+        off_tile = (rs.pos[:, :2].abs() > self.half_size - EDGE_MARGIN_M).any(dim=1)
+        failed = (self.diverged[t] | off_tile) & ~succeeded
+        timeout = (self.step_count[t] >= self.episode_steps) & ~succeeded & ~failed
+        return StepOutput(ids=ids, state=rs, in_goal=goal, succeeded=succeeded, failed=failed, timeout=timeout, diverged=div)
+
+    # ---------------------------------------------------------- observations
+    def observe(self, ids: np.ndarray | None = None) -> dict[str, torch.Tensor]:
+        """Observation groups ``student`` (k, 9 + 3J) and ``teacher`` for slots ``ids``."""
+        ids = np.arange(self.num_envs) if ids is None else np.asarray(ids, dtype=np.int64)
+        t = torch.from_numpy(ids)
+        rs = self.robot_state(ids)
+        student = student_obs(rs, self.nominal, self.prev_action[t])
+        pts = scan_points(rs)
+        k, s = pts.shape[:2]
+        scan = sample_heights(self.heights, np.repeat(self.world_idx[ids], s), pts.reshape(-1, 2), self.res)
+        slope = torch.tensor([self.worlds[w].cell.slope_pct for w in self.world_idx[ids]], dtype=torch.float32)
+        priv = privileged_obs(rs, slope, self.friction[t], torch.from_numpy(scan.reshape(k, s)), self.factors[t])
+        return {"student": student, "teacher": torch.cat([student, priv], dim=-1)}
+
+    def metrics(self, ids: np.ndarray) -> dict[str, np.ndarray]:
+        """Per-episode bookkeeping of slots ``ids``: TTR, DTR (if successful), energy, peak ω."""
+        t = torch.from_numpy(np.asarray(ids, dtype=np.int64))
+        ttr = self.goal.streak_start_step[t].double() * self.control_dt
+        dtr = (self.goal.streak_start_xy[t] - self.start_xy[t]).norm(dim=1)
+        return {
+            "ttr_s": ttr.numpy(),
+            "dtr_m": dtr.numpy(),
+            "energy_j": self.energy[t].numpy(),
+            "peak_ang_speed": self.peak_ang_speed[t].double().numpy(),
+            "diverged": self.diverged[t].numpy(),
+        }
+
+    def close(self) -> None:
+        self.stepper.close()

@@ -1,0 +1,92 @@
+"""Decoding batched MuJoCo states into the quantities the goal set, observations and
+rewards read (torch, float32 unless stated)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from selfright.sim.batch import StateLayout
+from selfright.sim.scene import SensorLayout
+
+
+@dataclass
+class RobotState:
+    """Quantities of n envs at the end of a control step."""
+
+    pos: torch.Tensor
+    """(n, 3) trunk position, world frame (m), float64."""
+    rot: torch.Tensor
+    """(n, 3, 3) trunk rotation, body → world."""
+    lin_vel: torch.Tensor
+    """(n, 3) trunk linear velocity, world frame (m/s)."""
+    ang_vel: torch.Tensor
+    """(n, 3) trunk angular velocity, body frame (rad/s)."""
+    q: torch.Tensor
+    """(n, J) joint angles (rad)."""
+    qd: torch.Tensor
+    """(n, J) joint velocities (rad/s)."""
+    torque: torch.Tensor
+    """(n, J) motor torques of the last physics step (N·m)."""
+    feet_contact: torch.Tensor
+    """(n, F) bool, foot touches the ground."""
+    body_contacts: torch.Tensor
+    """(n,) number of non-foot bodies touching the ground."""
+    ground_z: torch.Tensor
+    """(n,) ground height under the trunk (m)."""
+
+    @property
+    def height(self) -> torch.Tensor:
+        """(n,) trunk height above the ground beneath it (m)."""
+        return (self.pos[:, 2] - self.ground_z.to(torch.float64)).float()
+
+    @property
+    def projected_gravity(self) -> torch.Tensor:
+        """(n, 3) unit gravity direction in the body frame (what an IMU's tilt gives)."""
+        return -self.rot[:, 2, :]
+
+    @property
+    def up_z(self) -> torch.Tensor:
+        """(n,) cos of the angle between the trunk up axis and world z."""
+        return self.rot[:, 2, 2]
+
+    @property
+    def roll(self) -> torch.Tensor:
+        return torch.atan2(self.rot[:, 2, 1], self.rot[:, 2, 2])
+
+    @property
+    def pitch(self) -> torch.Tensor:
+        return torch.asin(torch.clamp(-self.rot[:, 2, 0], -1.0, 1.0))
+
+
+def quat_to_matrix(quat: torch.Tensor) -> torch.Tensor:
+    """(n, 4) quaternions (w, x, y, z) -> (n, 3, 3) rotation matrices."""
+    q = quat / quat.norm(dim=-1, keepdim=True).clamp_min(1e-9)
+    w, x, y, z = q.unbind(-1)
+    return torch.stack(
+        [
+            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+        ],
+        dim=-1,
+    ).reshape(-1, 3, 3)
+
+
+def decode(state: np.ndarray, sens: np.ndarray, ground_z: np.ndarray, sl: StateLayout, so: SensorLayout) -> RobotState:
+    """Build a RobotState from (n, nstate) states and (n, nsensordata) sensor readings."""
+    f = lambda a: torch.from_numpy(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
+    return RobotState(
+        pos=torch.from_numpy(np.ascontiguousarray(state[:, sl.pos])),
+        rot=quat_to_matrix(f(state[:, sl.quat])),
+        lin_vel=f(state[:, sl.lin_vel]),
+        ang_vel=f(state[:, sl.ang_vel]),
+        q=f(state[:, sl.qpos_joints]),
+        qd=f(state[:, sl.qvel_joints]),
+        torque=f(sens[:, so.actuator_force]),
+        feet_contact=torch.from_numpy(sens[:, so.foot_contact] > 0),
+        body_contacts=torch.from_numpy((sens[:, so.body_contact] > 0).sum(axis=1)).float(),
+        ground_z=torch.from_numpy(np.asarray(ground_z, dtype=np.float64)),
+    )

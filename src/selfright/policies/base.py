@@ -1,0 +1,42 @@
+"""The policy interface every evaluated or trained controller plugs into."""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Sequence
+
+import numpy as np
+import torch
+
+
+class Policy(abc.ABC):
+    """A batched controller.
+
+    ``act`` maps the observation groups of k envs to k actions; joint targets are then
+    ``current joint angle + ActionConfig.scale_rad · action`` (see ``RecoveryEnv.targets``).
+    ``ids`` identify the env slots (for policies that keep per-episode memory) and
+    ``contexts`` name the training context of each env's cell (``flat``/``rough``/``incline``),
+    which only a context multiplexer reads.
+    """
+
+    name: str = "policy"
+
+    def reset(self, ids: np.ndarray) -> None:  # noqa: B027 - optional hook
+        """Forget per-episode memory of slots ``ids`` (called when their episodes start)."""
+
+    @abc.abstractmethod
+    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
+        """(k, J) actions for the k envs whose observations are given."""
+
+
+class CallablePolicy(Policy):
+    """Wraps a plain callable ``f(obs: Tensor (k, D)) -> Tensor (k, J)`` reading one group."""
+
+    def __init__(self, fn, group: str = "student", name: str = "callable"):
+        self.fn = fn
+        self.group = group
+        self.name = name
+
+    @torch.no_grad()
+    def act(self, obs, ids, contexts):
+        return torch.as_tensor(self.fn(obs[self.group]), dtype=torch.float32)

@@ -1,0 +1,49 @@
+"""Robot specification: everything the benchmark needs to know about a robot, by name."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True, kw_only=True)
+class RobotSpec:
+    """A legged robot as the benchmark sees it.
+
+    The MJCF returned by ``mjcf`` must contain: a free-floating body named ``trunk_body``,
+    actuators in the order of ``joint_names`` (PD position servos), one collision geom per
+    foot named as in ``foot_geoms``, and a default class ``robot`` for all collision geoms.
+    """
+
+    name: str
+    """Registry name."""
+    trunk_body: str
+    """Name of the floating base body."""
+    joint_names: tuple[str, ...]
+    """Actuated joints, in action order."""
+    foot_geoms: tuple[str, ...]
+    """Collision geoms of the feet."""
+    contact_bodies: tuple[str, ...]
+    """Non-foot bodies whose ground contacts count as collisions."""
+    joint_low: np.ndarray
+    """Lower joint limits (rad), shape (num_joints,)."""
+    joint_high: np.ndarray
+    """Upper joint limits (rad), shape (num_joints,)."""
+    nominal_pose: np.ndarray
+    """Nominal standing joint angles (rad), shape (num_joints,)."""
+    stand_pose: np.ndarray
+    """Standing joint angles whose trunk height clears the goal-set bar (rad)."""
+    leg_length_m: float
+    """Fully extended leg length, hip axis to foot centre (m)."""
+    body_length_m: float
+    """Overall body length (m)."""
+    torque_limit: float
+    """Motor torque limit (N·m)."""
+    mjcf: Callable[[float, float], str]
+    """``mjcf(kp, kd)`` -> MJCF text of the robot alone (a ``<mujoco>`` document)."""
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.joint_names)
