@@ -57,9 +57,9 @@ class RobotConfig:
 
     name: str = "a1"
     """Robot spec name (see ``selfright.robots``)."""
-    kp: float = 35.0
+    kp: float = 50.0
     """PD stiffness of every joint (N·m/rad)."""
-    kd: float = 0.5
+    kd: float = 1.0
     """PD damping of every joint (N·m·s/rad)."""
 
 

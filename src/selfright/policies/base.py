@@ -21,8 +21,12 @@ class Policy(abc.ABC):
 
     name: str = "policy"
 
-    def reset(self, ids: np.ndarray) -> None:  # noqa: B027 - optional hook
-        """Forget per-episode memory of slots ``ids`` (called when their episodes start)."""
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:  # noqa: B027 - optional hook
+        """Forget per-episode memory of slots ``ids`` (called when their episodes start).
+
+        ``seeds`` (k,) are the episodes' seeds, for policies that draw random numbers: a
+        stochastic policy must seed per episode so results do not depend on batching.
+        """
 
     @abc.abstractmethod
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:

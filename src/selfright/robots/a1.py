@@ -55,6 +55,7 @@ def a1_mjcf(kp: float, kd: float) -> str:
         for j in ("hip", "thigh", "calf")
     )
     return f"""<mujoco model="unitree_a1">
+  <compiler angle="radian" autolimits="true"/>
   <default>
     <joint limited="true" armature="{ARMATURE}" damping="0.01"/>
     <default class="abduction"><joint axis="1 0 0" range="{_ABD_RANGE[0]} {_ABD_RANGE[1]}"/></default>

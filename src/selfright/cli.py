@@ -1,0 +1,187 @@
+"""``selfright`` command line: evaluate, scene, bench-sim, train, export (tyro subcommands)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+import tyro
+
+from selfright.config import BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, SimConfig
+
+Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
+
+
+@dataclass(frozen=True)
+class Evaluate:
+    """Evaluate a policy on a grid of terrain contexts; writes episodes.csv, summary.json, plots."""
+
+    policy: str = "open-loop"
+    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file."""
+    grid: Grid = "quick"
+    """tiny = 2×2 cells (tests), quick = every other level, paper = full 11×20 grid, or a training context."""
+    episodes: int = 20
+    """Episodes per cell."""
+    seed: int = 0
+    """Run seed: terrain and every episode's fall are derived from it."""
+    out: Path | None = None
+    """Results directory (default results/POLICY_GRID). Rerunning into it resumes."""
+    batch_size: int = 64
+    """Episodes simulated side by side."""
+    threads: int = 0
+    """Physics threads (0 = one per core)."""
+    friction: float = 1.0
+    """Ground friction of every cell."""
+    wall_gap_ratio: float | None = None
+    """Confined space: side walls this many body lengths apart (default: none)."""
+    ground_timeconst: float = 0.02
+    """Ground compliance: contact time constant (s); larger = softer."""
+    hold_s: float = 1.0
+    """Seconds the goal set must be held for success."""
+    episode_s: float = 10.0
+    """Episode limit after settling (s)."""
+    plots: bool = True
+    """Write the heatmaps and histograms."""
+    progress: bool = True
+    """Show a progress bar."""
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Write a self-contained MJCF of the robot on one terrain tile (open it in the MuJoCo viewer)."""
+
+    out: Path
+    """Output .xml path."""
+    slope_level: int = 0
+    """Slope level 0..10 (0 %, 10 %, ..., 100 % grade)."""
+    roughness_level: int = 0
+    """Roughness level 0..19."""
+    seed: int = 0
+    """Terrain seed."""
+    friction: float = 1.0
+    """Ground friction."""
+    wall_gap_ratio: float | None = None
+    """Side walls this many body lengths apart (default: none)."""
+    ground_timeconst: float = 0.02
+    """Ground contact time constant (s)."""
+
+
+@dataclass(frozen=True)
+class BenchSim:
+    """Measure env-step throughput of the batched CPU simulator (prints one JSON line)."""
+
+    envs: int = 64
+    """Parallel envs."""
+    seconds: float = 10.0
+    """Measurement duration (s)."""
+    slope_level: int = 0
+    """Slope level of the tile."""
+    roughness_level: int = 0
+    """Roughness level of the tile."""
+    threads: int = 0
+    """Physics threads (0 = one per core)."""
+
+
+def _benchmark_config(threads: int = 0, batch_size: int = 64, **eval_kw) -> BenchmarkConfig:
+    goal = {k: eval_kw.pop(k) for k in ("hold_s", "episode_s") if k in eval_kw}
+    return BenchmarkConfig(
+        sim=SimConfig(threads=threads), eval=EvalConfig(batch_size=batch_size, **eval_kw), goal=GoalConfig(**goal)
+    )
+
+
+def run_evaluate(a: Evaluate) -> None:
+    from selfright.evaluate.runner import evaluate_grid, format_table
+    from selfright.policies.registry import make_policy
+
+    cfg = _benchmark_config(
+        threads=a.threads, batch_size=a.batch_size, friction=a.friction, wall_gap_ratio=a.wall_gap_ratio,
+        ground_timeconst_s=a.ground_timeconst, hold_s=a.hold_s, episode_s=a.episode_s,
+    )
+    if a.batch_size < 1:
+        raise ValueError("--batch-size must be >= 1")
+    out = a.out or Path("results") / f"{Path(a.policy).stem}_{a.grid}"
+    policy = make_policy(a.policy, cfg)
+    res = evaluate_grid(
+        policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
+        progress=a.progress,
+    )
+    if a.plots:
+        from selfright.plots import make_plots
+
+        make_plots(out)
+    print(format_table(res.summary))
+    print(f"{res.episodes_run} episodes simulated in {res.seconds:.1f} s; results in {out}/")
+
+
+def run_scene(a: Scene) -> None:
+    from selfright.env.world import build_world
+    from selfright.terrain import make_cell
+
+    cfg = BenchmarkConfig()
+    ctx = ContextConfig(friction=a.friction, wall_gap_ratio=a.wall_gap_ratio, ground_timeconst_s=a.ground_timeconst)
+    world = build_world(make_cell(a.slope_level, a.roughness_level, cfg.terrain), cfg, ctx, a.seed)
+    z = float(world.tile.max_height_near([[0.0, 0.0]], 0.5)[0]) + 0.45
+    xml = world.xml.replace('<body name="trunk" pos="0 0 0.45">', f'<body name="trunk" pos="0 0 {z:.4f}">')
+    try:
+        a.out.parent.mkdir(parents=True, exist_ok=True)
+        a.out.write_text(xml)
+    except OSError as e:
+        raise ValueError(f"cannot write {a.out}: {e.strerror or e}") from e
+    print(f"wrote {a.out} (slope {world.cell.slope_pct:.0f} %, roughness level {a.roughness_level}, R = {world.tile.roughness():.2f})")
+
+
+def run_bench(a: BenchSim) -> None:
+    from selfright.benchmark import measure_throughput
+    from selfright.terrain import make_cell
+
+    cfg = _benchmark_config(threads=a.threads)
+    make_cell(a.slope_level, a.roughness_level, cfg.terrain)  # validates the levels
+    if a.envs < 1 or a.seconds <= 0:
+        raise ValueError("--envs must be >= 1 and --seconds > 0")
+    print(json.dumps(measure_throughput(cfg, num_envs=a.envs, seconds=a.seconds, slope_level=a.slope_level, roughness_level=a.roughness_level)))
+
+
+def _commands() -> dict[str, type]:
+    cmds: dict[str, type] = {"evaluate": Evaluate, "scene": Scene, "bench-sim": BenchSim}
+    try:
+        from selfright.train.commands import ExportArgs, TrainArgs
+
+        cmds["train"] = TrainArgs
+        cmds["export"] = ExportArgs
+    except ImportError:  # training extras not importable: the benchmark still works
+        pass
+    return cmds
+
+
+def main(argv: list[str] | None = None) -> int:
+    cmds = _commands()
+    args = tyro.extras.subcommand_cli_from_dict(cmds, args=argv, prog="selfright")
+    try:
+        if isinstance(args, Evaluate):
+            run_evaluate(args)
+        elif isinstance(args, Scene):
+            run_scene(args)
+        elif isinstance(args, BenchSim):
+            run_bench(args)
+        else:
+            from selfright.train import commands
+
+            if type(args).__name__ == "TrainArgs":
+                commands.train(args)
+            else:
+                commands.export(args)
+    except (ValueError, FileNotFoundError, RuntimeError) as e:
+        print(f"selfright: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("selfright: interrupted; rerun the same command to resume", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

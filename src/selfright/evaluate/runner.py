@@ -1,0 +1,189 @@
+"""Grid evaluation: every (cell, episode) of a named grid, in batches on the batched env,
+written as tidy result files. Resumable and deterministic: each episode's randomness comes
+from its own seed, derived from (run seed, cell, episode), and physics of one env does not
+depend on the others in its batch, so a resumed or re-batched run gives identical rows."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from selfright.config import BenchmarkConfig, ContextConfig, to_dict
+from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.world import World, build_world
+from selfright.evaluate.metrics import summarize
+from selfright.evaluate.results import (
+    EpisodeWriter,
+    check_run_identity,
+    episode_key,
+    read_episodes,
+    write_canonical,
+    write_json,
+)
+from selfright.policies.base import Policy
+from selfright.terrain import Cell, grid_cells
+
+
+def episode_seed(seed: int, cell: Cell, episode: int) -> int:
+    """32-bit seed of one episode, a pure function of the run seed, the cell and the index."""
+    key = (cell.slope_level + 1, cell.roughness_level, int(round(cell.slope_pct * 1000)), episode)
+    return int(np.random.SeedSequence(entropy=seed, spawn_key=key).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class EvalResult:
+    out_dir: Path
+    summary: dict[str, Any]
+    seconds: float
+    episodes_run: int
+
+
+def context_config(cfg: BenchmarkConfig) -> ContextConfig:
+    e = cfg.eval
+    return ContextConfig(friction=e.friction, wall_gap_ratio=e.wall_gap_ratio, ground_timeconst_s=e.ground_timeconst_s)
+
+
+def prepare_out_dir(out: Path) -> None:
+    """Create ``out`` and make sure it is writable (raises ValueError with advice otherwise)."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write_test"
+        probe.write_text("ok")
+        probe.unlink()
+    except OSError as e:
+        raise ValueError(f"cannot write to --out {out}: {e.strerror or e}; choose a writable directory") from e
+
+
+def evaluate_grid(
+    policy: Policy,
+    *,
+    policy_name: str,
+    grid: str,
+    episodes: int,
+    seed: int,
+    out_dir: Path,
+    cfg: BenchmarkConfig,
+    progress: bool = True,
+) -> EvalResult:
+    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary."""
+    if episodes < 1:
+        raise ValueError(f"--episodes must be >= 1, got {episodes}")
+    cells = grid_cells(grid, cfg.terrain)
+    out_dir = Path(out_dir)
+    prepare_out_dir(out_dir)
+    identity = {"policy": policy_name, "grid": grid, "episodes_per_cell": episodes, "seed": seed, "config": to_dict(cfg)}
+    check_run_identity(out_dir, identity)
+    csv_path = out_dir / "episodes.csv"
+    order = {(c.slope_level, c.roughness_level): k for k, c in enumerate(cells)}
+    existing = [r for r in read_episodes(csv_path) if (r["slope_level"], r["roughness_level"]) in order and r["episode"] < episodes]
+    done = {episode_key(r) for r in existing}
+    jobs = [(k, e) for k, c in enumerate(cells) for e in range(episodes) if (c.slope_level, c.roughness_level, e) not in done]
+
+    ctx = context_config(cfg)
+    t0 = time.time()
+    worlds: list[World] = [build_world(c, cfg, ctx, seed) for c in cells]
+    rough = [w.tile.roughness() for w in worlds]
+    rows = list(existing)
+    if jobs:
+        writer = EpisodeWriter(csv_path, existing)
+        env = RecoveryEnv(cfg, worlds, min(cfg.eval.batch_size, len(jobs)))
+        bar = tqdm(total=len(cells) * episodes, initial=len(done), desc=f"{policy_name} on {grid}", unit="ep", disable=not progress)
+        try:
+            for b in range(0, len(jobs), env.num_envs):
+                batch = jobs[b : b + env.num_envs]
+                new = _run_batch(env, policy, batch, cells, worlds, rough, seed)
+                writer.write(new)
+                rows.extend(new)
+                bar.update(len(new))
+        finally:
+            bar.close()
+            writer.close()
+            env.close()
+    write_canonical(csv_path, rows, order)
+
+    summary = _summary(identity, cells, worlds, rough, rows)
+    write_json(out_dir / "summary.json", summary)
+    return EvalResult(out_dir=out_dir, summary=summary, seconds=time.time() - t0, episodes_run=len(jobs))
+
+
+def _run_batch(
+    env: RecoveryEnv, policy: Policy, batch: list[tuple[int, int]], cells: list[Cell], worlds: list[World],
+    rough: list[float], seed: int,
+) -> list[dict[str, Any]]:
+    """Simulate one batch of episodes to completion; returns their rows."""
+    ids = np.arange(len(batch))
+    seeds = np.array([episode_seed(seed, cells[k], e) for k, e in batch], dtype=np.int64)
+    env.reset(ids, np.array([k for k, _ in batch]), [np.random.default_rng(s) for s in seeds])
+    policy.reset(ids, seeds)
+    contexts = [cells[k].context for k, _ in batch]
+    success = np.zeros(len(batch), dtype=bool)
+    active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
+    while len(active):
+        obs = env.observe(active)
+        with torch.no_grad():
+            actions = policy.act(obs, active, [contexts[i] for i in active])
+        out = env.step(actions, active)
+        success[active[out.succeeded.numpy()]] = True
+        active = active[~out.done.numpy()]
+    m = env.metrics(ids)
+    rows = []
+    for i, (k, e) in enumerate(batch):
+        c = cells[k]
+        ok = bool(success[i])
+        rows.append({
+            "slope_level": c.slope_level, "roughness_level": c.roughness_level,
+            "slope_pct": c.slope_pct, "slope_deg": c.slope_deg, "roughness_R": rough[k],
+            "friction": worlds[k].context.friction, "episode": e, "seed": int(seeds[i]), "success": ok,
+            "ttr_s": float(m["ttr_s"][i]) if ok else None, "dtr_m": float(m["dtr_m"][i]) if ok else None,
+            "energy_j": float(m["energy_j"][i]), "peak_ang_speed": float(m["peak_ang_speed"][i]),
+            "diverged": bool(m["diverged"][i]),
+        })
+    return rows
+
+
+def _summary(identity, cells, worlds, rough, rows) -> dict[str, Any]:
+    by_cell: dict[tuple[int, int], list[dict[str, Any]]] = {}
+    for r in rows:
+        by_cell.setdefault((r["slope_level"], r["roughness_level"]), []).append(r)
+    out_cells = []
+    for k, c in enumerate(cells):
+        stats = summarize(by_cell.get((c.slope_level, c.roughness_level), []))
+        out_cells.append({
+            "slope_level": c.slope_level, "roughness_level": c.roughness_level, "slope_pct": c.slope_pct,
+            "slope_deg": c.slope_deg, "roughness_extent_m": c.roughness_extent_m, "roughness_R": rough[k],
+            "friction": worlds[k].context.friction, "context": c.context, **stats,
+        })
+    return {**identity, "cells": out_cells, "overall": summarize(rows)}
+
+
+def format_table(summary: dict[str, Any], max_rows: int = 40) -> str:
+    """Compact text table of the per-cell results plus the overall line."""
+    lines = [f"{'slope':>6} {'rough':>5} {'R':>7} {'n':>4} {'success':>8} {'ci95':>13} {'TTR s':>6} {'DTR m':>6}"]
+
+    def fmt(v: float | None, p: str) -> str:
+        return "  N/A" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, p)
+
+    cells = summary["cells"]
+    shown = cells if len(cells) <= max_rows else cells[:max_rows]
+    for c in shown:
+        lo, hi = c["success_ci95"]
+        lines.append(
+            f"{c['slope_pct']:5.0f}% {c['roughness_level']:5d} {c['roughness_R']:7.1f} {c['n']:4d} "
+            f"{100 * c['success_rate']:7.1f}% [{100 * lo:4.0f},{100 * hi:4.0f}]% {fmt(c['ttr_mean_s'], '6.2f')} {fmt(c['dtr_mean_m'], '6.2f')}"
+        )
+    if len(cells) > max_rows:
+        lines.append(f"... {len(cells) - max_rows} more cells in summary.json")
+    o = summary["overall"]
+    lo, hi = o["success_ci95"]
+    lines.append(
+        f"overall: {o['n']} episodes, success {100 * o['success_rate']:.1f}% [{100 * lo:.0f}, {100 * hi:.0f}]%, "
+        f"TTR {fmt(o['ttr_mean_s'], '.2f')} s, DTR {fmt(o['dtr_mean_m'], '.2f')} m, diverged {o['diverged']}"
+    )
+    return "\n".join(lines)

@@ -1,0 +1,54 @@
+"""Policies by name: baselines, shipped learned policies, the ``sr`` multiplexer, or a file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from selfright.config import BenchmarkConfig
+from selfright.policies.base import Policy
+from selfright.policies.baselines import OpenLoopPolicy, RandomPolicy, ZeroPolicy
+from selfright.robots import get_robot
+
+BASELINES = ("zero", "random", "open-loop")
+CONTEXTS = ("flat", "rough", "incline")
+CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
+
+
+def shipped_path(name: str) -> Path:
+    """Path of a shipped learned policy (``flat``, ``flat-teacher``, ...)."""
+    return CHECKPOINT_DIR / f"{name}.pt"
+
+
+def available_policies() -> list[str]:
+    shipped = sorted(p.stem for p in CHECKPOINT_DIR.glob("*.pt")) if CHECKPOINT_DIR.exists() else []
+    extra = ["sr"] if all(shipped_path(c).exists() for c in CONTEXTS) else []
+    return list(BASELINES) + shipped + extra
+
+
+def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
+    """Build the policy called ``name``: a baseline, a shipped policy, ``sr``, or a file path
+    (``.pt`` actor file, TorchScript ``.pt``/``.jit``, or ``.onnx``). ``ValueError`` otherwise."""
+    robot = get_robot(cfg.robot.name)
+    if name == "zero":
+        return ZeroPolicy(robot, cfg.action.scale_rad)
+    if name == "random":
+        return RandomPolicy(robot.num_joints)
+    if name == "open-loop":
+        return OpenLoopPolicy(robot, cfg.action.scale_rad, cfg.sim.control_dt_s)
+    from selfright.policies import learned  # torch-model loading only when needed
+
+    if name == "sr":
+        missing = [c for c in CONTEXTS if not shipped_path(c).exists()]
+        if missing:
+            raise ValueError(f"policy 'sr' needs the shipped policies {', '.join(missing)}, which are not in this install")
+        from selfright.policies.multiplexer import ContextMultiplexer
+
+        return ContextMultiplexer({c: learned.load_policy_file(shipped_path(c)) for c in CONTEXTS})
+    if shipped_path(name).exists():
+        return learned.load_policy_file(shipped_path(name))
+    path = Path(name)
+    if path.suffix in (".pt", ".jit", ".onnx", ".pth") or path.exists():
+        if not path.exists():
+            raise ValueError(f"policy file {path} does not exist")
+        return learned.load_policy_file(path)
+    raise ValueError(f"unknown policy {name!r}; choose one of: {', '.join(available_policies())}, or a .pt/.onnx file")
