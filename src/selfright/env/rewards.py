@@ -1,0 +1,132 @@
+"""The seed's reward (Table I) as pure, unweighted terms.
+
+Each term maps the robot state after a control step (and, where needed, the actions or the
+episode's start point) to a tensor of shape (n,). Weights live only in
+``selfright.train.config.RewardConfig``; ``weighted_rewards`` forms w_i · r_i · dt per term
+and their sum, r_total = Σ_i w_i · r_i · dt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from selfright.env.robot_state import RobotState
+from selfright.train.config import RewardConfig
+
+
+# ----------------------------------------------------------------------------- terms
+def upright_cos(rs: RobotState) -> torch.Tensor:
+    """(n,) cos θ_z: cosine of the angle between the trunk's up axis and world +z, in [−1, 1]."""
+    return rs.up_z.float()
+
+
+def vertical_velocity_kernel(rs: RobotState, sigma_sq: float) -> torch.Tensor:
+    """(n,) φ(v_z) = exp(−v_z² / sigma_sq), v_z the trunk's world vertical velocity (m/s); in (0, 1]."""
+    vz = rs.lin_vel[:, 2].float()
+    return torch.exp(-vz.square() / sigma_sq)
+
+
+def torque_l2(rs: RobotState) -> torch.Tensor:
+    """(n,) −‖τ‖², τ (n, J) the motor torques (N²·m²)."""
+    return -rs.torque.float().square().sum(dim=-1)
+
+
+def base_height_l2(rs: RobotState, target_m: float) -> torch.Tensor:
+    """(n,) −(z* − z)², z the trunk height above the ground beneath it (m²)."""
+    return -(target_m - rs.height.float()).square()
+
+
+def body_collisions(rs: RobotState) -> torch.Tensor:
+    """(n,) −n_c, n_c the number of non-foot bodies touching the ground."""
+    return -rs.body_contacts.float()
+
+
+def action_rate_l2(action: torch.Tensor, prev_action: torch.Tensor) -> torch.Tensor:
+    """(n,) −‖a_t − a_{t−1}‖² over the (n, J) actions of this and the previous control step."""
+    return -(action.float() - prev_action.float()).square().sum(dim=-1)
+
+
+def horizontal_drift_l2(rs: RobotState, start_xy: torch.Tensor) -> torch.Tensor:
+    """(n,) −‖xy_start − xy‖², trunk x-y (m) now against the (n, 2) start of the episode (m²)."""
+    d = start_xy.to(torch.float64) - rs.pos[:, :2].to(torch.float64)
+    return -d.square().sum(dim=-1).float()
+
+
+def joint_limit_violation(rs: RobotState, low: torch.Tensor, high: torch.Tensor) -> torch.Tensor:
+    """(n,) −Σ_j (max(0, q_j − high_j) + max(0, low_j − q_j)), joint angles (n, J) against
+    their (J,) limits (rad).
+
+    The seed's Table I prints this term without the leading minus (a sign slip: with a
+    positive weight it would pay the policy for leaving the joint range); we implement the
+    penalty, so the term is ≤ 0.
+    """
+    q = rs.q.float()
+    over = (q - high.float()).clamp_min(0.0) + (low.float() - q).clamp_min(0.0)
+    return -over.sum(dim=-1)
+
+
+def all_feet_contact(rs: RobotState) -> torch.Tensor:
+    """(n,) 1 where all four feet touch the ground, else 0."""
+    return rs.feet_contact.all(dim=-1).float()
+
+
+# ----------------------------------------------------------------------------- sum
+@dataclass(frozen=True)
+class RewardContext:
+    """Per-step inputs of the reward beyond the robot state."""
+
+    action: torch.Tensor
+    """(n, J) clipped action of this control step."""
+    prev_action: torch.Tensor
+    """(n, J) clipped action of the previous control step (zeros at an episode's start)."""
+    start_xy: torch.Tensor
+    """(n, 2) trunk x-y when the policy took over (m)."""
+    joint_low: torch.Tensor
+    """(J,) lower joint limits (rad)."""
+    joint_high: torch.Tensor
+    """(J,) upper joint limits (rad)."""
+    target_height_m: float
+    """Goal standing height z* (m)."""
+
+
+def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
+    """Unweighted Table I terms by name, each (n,)."""
+    return {
+        "orientation": upright_cos(rs),
+        "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
+        "torques": torque_l2(rs),
+        "base_height": base_height_l2(rs, ctx.target_height_m),
+        "collisions": body_collisions(rs),
+        "action_rate": action_rate_l2(ctx.action, ctx.prev_action),
+        "horizontal_drift": horizontal_drift_l2(rs, ctx.start_xy),
+        "joint_limits": joint_limit_violation(rs, ctx.joint_low, ctx.joint_high),
+        "feet_contact": all_feet_contact(rs),
+    }
+
+
+def reward_weights(cfg: RewardConfig) -> dict[str, float]:
+    """Weight of every term, keyed like ``reward_terms``."""
+    return {
+        "orientation": cfg.orientation,
+        "vertical_velocity": cfg.vertical_velocity,
+        "torques": cfg.torques,
+        "base_height": cfg.base_height,
+        "collisions": cfg.collisions,
+        "action_rate": cfg.action_rate,
+        "horizontal_drift": cfg.horizontal_drift,
+        "joint_limits": cfg.joint_limits,
+        "feet_contact": cfg.feet_contact,
+    }
+
+
+def weighted_rewards(
+    rs: RobotState, ctx: RewardContext, cfg: RewardConfig, dt: float
+) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    """r_total (n,) = Σ_i w_i · r_i · dt, and every weighted term w_i · r_i · dt (n,) by name."""
+    terms = reward_terms(rs, ctx, cfg)
+    weights = reward_weights(cfg)
+    weighted = {name: weights[name] * value * dt for name, value in terms.items()}
+    total = torch.stack(list(weighted.values())).sum(dim=0)
+    return total, weighted

@@ -1,0 +1,1 @@
+"""Training stack: rsl_rl adapter, runners for teacher PPO and student distillation, export."""

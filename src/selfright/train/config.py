@@ -1,0 +1,220 @@
+"""Typed, frozen configuration of the training stack: reward weights, domain randomisation,
+training episodes, networks, PPO and distillation.
+
+The defaults are tuned for CPU training with 64–256 envs on a few cores (see ``PPOConfig``).
+``TrainConfig.to_rsl_rl`` turns them into the plain dict ``rsl_rl`` runners read.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+Context = Literal["flat", "rough", "incline"]
+"""Training contexts (seed §V): flat plane, rough level ground, 20° smooth slope."""
+Role = Literal["teacher", "student"]
+"""Teacher: PPO on privileged observations. Student: distilled onto sensor-only observations."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RewardConfig:
+    """Weights of the seed's reward terms (Table I). r_total = Σ w_i · r_i · dt."""
+
+    orientation: float = 2.5
+    """Weight of cos θ_z, the trunk up axis against world z (per s)."""
+    vertical_velocity: float = 0.1
+    """Weight of exp(−v_z² / vz_sigma_sq), v_z the trunk's vertical speed (per s)."""
+    torques: float = 0.001
+    """Weight of −‖τ‖², τ the motor torques (per N²·m²·s)."""
+    base_height: float = 40.0
+    """Weight of −(z* − z)², z the trunk height above the ground beneath it (per m²·s)."""
+    collisions: float = 1.0
+    """Weight of −n_c, the number of non-foot bodies touching the ground (per s)."""
+    action_rate: float = 0.01
+    """Weight of −‖a_t − a_{t−1}‖², a the (clipped) policy action (per s)."""
+    horizontal_drift: float = 0.01
+    """Weight of −‖xy_start − xy‖², trunk x-y displacement since the policy started (per m²·s)."""
+    joint_limits: float = 10.0
+    """Weight of −Σ_j (excess of q_j beyond its limits), rad (per rad·s)."""
+    feet_contact: float = 8.0
+    """Weight of 1 when all four feet touch the ground, else 0 (per s)."""
+    vz_sigma_sq: float = 0.25
+    """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
+    target_height_m: float | None = None
+    """Goal standing height z* (m); ``None`` = GoalConfig.height_fraction × leg length (0.32 m on A1)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RandomizationConfig:
+    """Per-episode uniform domain randomisation, written into per-slot MuJoCo models."""
+
+    enabled: bool = True
+    """Randomise at all; when off every episode runs on its world's nominal model."""
+    friction: tuple[float, float] = (0.4, 1.2)
+    """Ground sliding friction ~ U(low, high) (dimensionless)."""
+    kp_scale: tuple[float, float] = (0.8, 1.2)
+    """PD stiffness multiplier ~ U(low, high) (dimensionless)."""
+    kd_scale: tuple[float, float] = (0.8, 1.2)
+    """PD damping multiplier ~ U(low, high) (dimensionless)."""
+    mass_scale: tuple[float, float] = (0.9, 1.1)
+    """Multiplier of every robot body's mass and inertia ~ U(low, high) (dimensionless)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class EpisodeConfig:
+    """Training episodes (evaluation episodes are defined by ``GoalConfig``)."""
+
+    episode_s: float = 10.0
+    """Training episode length after settling (s): 500 control steps at 50 Hz."""
+    terminate_on_success: bool = False
+    """End the episode when the goal hold completes; off = keep holding until the time-out."""
+    rough_variants: int = 8
+    """Tiles of the ``rough`` context, roughness extents evenly spaced up to ``rough_max_extent_m``."""
+    rough_max_extent_m: float = 0.2
+    """Largest peak-to-peak roughness extent of the ``rough`` context (m)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PolicyConfig:
+    """Actor and critic networks (rsl_rl ``MLPModel``)."""
+
+    hidden_dims: tuple[int, ...] = (256, 128, 64)
+    """Hidden layer widths of actor and critic MLPs (units)."""
+    activation: str = "elu"
+    """Hidden activation (an ``rsl_rl`` activation name)."""
+    obs_normalization: bool = True
+    """Running mean/std normalisation of the inputs (stats are exported with the actor)."""
+    init_std: float = 1.0
+    """Initial standard deviation of the Gaussian action noise (action units)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PPOConfig:
+    """PPO hyper-parameters for CPU training with 64–256 envs.
+
+    One iteration collects ``num_envs × steps_per_env`` transitions (1536 with 64 envs),
+    split into ``num_mini_batches`` minibatches over ``num_learning_epochs`` epochs, so the
+    update costs about as much as the collection on a CPU.
+    """
+
+    steps_per_env: int = 24
+    """Transitions collected per env per iteration (control steps)."""
+    num_learning_epochs: int = 5
+    """Passes over each rollout."""
+    num_mini_batches: int = 4
+    """Minibatches per epoch."""
+    clip_param: float = 0.2
+    """PPO ratio clip (dimensionless)."""
+    gamma: float = 0.99
+    """Discount per control step (dimensionless)."""
+    lam: float = 0.95
+    """GAE λ (dimensionless)."""
+    value_loss_coef: float = 1.0
+    """Weight of the value loss (dimensionless)."""
+    entropy_coef: float = 0.01
+    """Weight of the entropy bonus (dimensionless)."""
+    learning_rate: float = 1e-3
+    """Initial Adam learning rate, adapted to hit ``desired_kl`` (1/update)."""
+    schedule: Literal["adaptive", "fixed"] = "adaptive"
+    """Learning-rate schedule."""
+    desired_kl: float = 0.01
+    """Target KL divergence per update for the adaptive schedule (nats)."""
+    max_grad_norm: float = 1.0
+    """Gradient-norm clip (dimensionless)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class DistillationConfig:
+    """Student distillation (rsl_rl ``Distillation``: behaviour cloning on the student's rollouts)."""
+
+    steps_per_env: int = 24
+    """Transitions collected per env per iteration (control steps)."""
+    num_learning_epochs: int = 1
+    """Passes over each rollout."""
+    gradient_length: int = 12
+    """Steps accumulated per gradient step; should divide ``steps_per_env × epochs``."""
+    learning_rate: float = 1e-3
+    """Adam learning rate (1/update)."""
+    max_grad_norm: float = 1.0
+    """Gradient-norm clip (dimensionless)."""
+    loss_type: Literal["mse", "huber"] = "mse"
+    """Behaviour-cloning loss between student and teacher mean actions."""
+    student_init_std: float = 0.1
+    """Action noise of the student while it collects its own rollouts (action units)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainConfig:
+    """Everything a training run needs beyond the benchmark configuration."""
+
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    randomization: RandomizationConfig = field(default_factory=RandomizationConfig)
+    episode: EpisodeConfig = field(default_factory=EpisodeConfig)
+    policy: PolicyConfig = field(default_factory=PolicyConfig)
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    distillation: DistillationConfig = field(default_factory=DistillationConfig)
+    checkpoint_every_s: float = 300.0
+    """Wall-clock time between checkpoints (s); one is also written at the end."""
+    keep_checkpoints: int = 10
+    """Most recent time-based checkpoints kept on disk; 0 = keep all."""
+
+    def to_rsl_rl(self, role: Role, teacher_policy: PolicyConfig | None = None) -> dict[str, Any]:
+        """The ``train_cfg`` dict of ``OnPolicyRunner`` (teacher) or ``DistillationRunner`` (student).
+
+        ``teacher_policy`` is the network of the trained teacher being distilled (default: ``policy``).
+        """
+        pol = self.policy
+        net = _mlp_cfg(pol)
+        gaussian = lambda std: {"class_name": "GaussianDistribution", "init_std": std, "std_type": "scalar"}  # noqa: E731
+        common = {"save_interval": 10**9, "logger": "tensorboard", "check_for_nan": True}
+        if role == "teacher":
+            p = self.ppo
+            return {
+                **common,
+                "num_steps_per_env": p.steps_per_env,
+                "obs_groups": {"actor": ["teacher"], "critic": ["teacher"]},
+                "actor": {**net, "distribution_cfg": gaussian(pol.init_std)},
+                "critic": dict(net),
+                "algorithm": {
+                    "class_name": "PPO",
+                    "num_learning_epochs": p.num_learning_epochs,
+                    "num_mini_batches": p.num_mini_batches,
+                    "clip_param": p.clip_param,
+                    "gamma": p.gamma,
+                    "lam": p.lam,
+                    "value_loss_coef": p.value_loss_coef,
+                    "entropy_coef": p.entropy_coef,
+                    "learning_rate": p.learning_rate,
+                    "max_grad_norm": p.max_grad_norm,
+                    "schedule": p.schedule,
+                    "desired_kl": p.desired_kl,
+                    "use_clipped_value_loss": True,
+                },
+            }
+        d = self.distillation
+        return {
+            **common,
+            "num_steps_per_env": d.steps_per_env,
+            "obs_groups": {"student": ["student"], "teacher": ["teacher"]},
+            "student": {**net, "distribution_cfg": gaussian(d.student_init_std)},
+            # The teacher acts deterministically; init_std 0 as rsl_rl's maintainers advise
+            # (its trained std is loaded with the weights and never used).
+            "teacher": {**_mlp_cfg(teacher_policy or pol), "distribution_cfg": gaussian(0.0)},
+            "algorithm": {
+                "class_name": "Distillation",
+                "num_learning_epochs": d.num_learning_epochs,
+                "gradient_length": d.gradient_length,
+                "learning_rate": d.learning_rate,
+                "max_grad_norm": d.max_grad_norm,
+                "loss_type": d.loss_type,
+            },
+        }
+
+
+def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:
+    return {
+        "class_name": "MLPModel",
+        "hidden_dims": list(pol.hidden_dims),
+        "activation": pol.activation,
+        "obs_normalization": pol.obs_normalization,
+    }
