@@ -1,0 +1,87 @@
+"""Per-episode domain randomisation: ground friction, PD gains and robot masses.
+
+Factors are drawn uniformly from ``RandomizationConfig`` with an explicit generator and
+written into a private copy of the episode's ``MjModel`` (``RecoveryEnv.reset`` accepts one
+model per slot). The same factors go into ``RecoveryEnv.factors`` / ``RecoveryEnv.friction``,
+which the teacher observes.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import torch
+
+from selfright.robots import RobotSpec
+from selfright.sim.scene import TERRAIN_GEOM
+from selfright.train.config import RandomizationConfig
+
+
+@dataclass(frozen=True)
+class EpisodeFactors:
+    """Randomised physical factors of k episodes, each (k,)."""
+
+    friction: np.ndarray
+    """Ground sliding friction (dimensionless)."""
+    mass_scale: np.ndarray
+    """Multiplier of every robot body's mass and inertia."""
+    kp_scale: np.ndarray
+    """Multiplier of the PD stiffness."""
+    kd_scale: np.ndarray
+    """Multiplier of the PD damping."""
+
+    def as_tensor(self) -> torch.Tensor:
+        """(k, 3) mass, Kp, Kd scales, the column order of ``RecoveryEnv.factors``."""
+        return torch.from_numpy(np.stack([self.mass_scale, self.kp_scale, self.kd_scale], axis=1)).float()
+
+
+def sample_factors(k: int, cfg: RandomizationConfig, rng: np.random.Generator) -> EpisodeFactors:
+    """Draw the factors of ``k`` episodes, each uniform on its configured range."""
+    u = lambda bounds: rng.uniform(bounds[0], bounds[1], size=k)  # noqa: E731
+    return EpisodeFactors(
+        friction=u(cfg.friction), mass_scale=u(cfg.mass_scale), kp_scale=u(cfg.kp_scale), kd_scale=u(cfg.kd_scale)
+    )
+
+
+class ModelRandomizer:
+    """Writes episode factors into copies of a world's model.
+
+    MuJoCo ids are looked up by name once, here: the terrain geom, the robot's bodies (the
+    trunk's subtree) and the PD actuators (position servos: force = kp·(target − q) − kd·q̇,
+    i.e. ``gainprm[0] = kp``, ``biasprm[1] = −kp``, ``biasprm[2] = −kd``).
+    """
+
+    def __init__(self, template: mujoco.MjModel, robot: RobotSpec):
+        self.terrain_geom = template.geom(TERRAIN_GEOM).id
+        trunk = template.body(robot.trunk_body).id
+        self.bodies = np.array([b for b in range(template.nbody) if _in_subtree(template, b, trunk)])
+        self.actuators = np.array([template.actuator(j.removesuffix("_joint")).id for j in robot.joint_names])
+
+    def apply(self, base: mujoco.MjModel, friction: float, mass: float, kp: float, kd: float) -> mujoco.MjModel:
+        """A copy of ``base`` with the ground friction set and masses, inertias, Kp, Kd scaled."""
+        m = copy.copy(base)
+        m.geom_friction[self.terrain_geom, 0] = friction
+        m.body_mass[self.bodies] = base.body_mass[self.bodies] * mass
+        m.body_inertia[self.bodies] = base.body_inertia[self.bodies] * mass
+        a = self.actuators
+        m.actuator_gainprm[a, 0] = base.actuator_gainprm[a, 0] * kp
+        m.actuator_biasprm[a, 1] = base.actuator_biasprm[a, 1] * kp
+        m.actuator_biasprm[a, 2] = base.actuator_biasprm[a, 2] * kd
+        return m
+
+    def models(self, bases: list[mujoco.MjModel], f: EpisodeFactors) -> list[mujoco.MjModel]:
+        """One randomised copy per episode, ``bases[i]`` with the i-th factors."""
+        return [
+            self.apply(b, f.friction[i], f.mass_scale[i], f.kp_scale[i], f.kd_scale[i]) for i, b in enumerate(bases)
+        ]
+
+
+def _in_subtree(model: mujoco.MjModel, body: int, root: int) -> bool:
+    while body > 0:
+        if body == root:
+            return True
+        body = int(model.body_parentid[body])
+    return root == 0

@@ -1,0 +1,58 @@
+"""The three training contexts of the seed (§V) as lists of compiled worlds.
+
+flat:    the flat plane.
+rough:   level ground, ``EpisodeConfig.rough_variants`` tiles whose roughness extents are
+         evenly spaced up to ``rough_max_extent_m`` (noise wavelength: ``TerrainConfig``'s,
+         half a body length). Each episode draws one tile.
+incline: a 20° smooth slope rising along +x. No yaw variants are needed: the fall
+         orientation is uniform on SO(3), so every heading on the slope occurs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from selfright.config import BenchmarkConfig, ContextConfig
+from selfright.env.world import World, build_world
+from selfright.terrain import Cell
+from selfright.terrain.grid import grid_cells
+from selfright.train.config import Context, EpisodeConfig
+
+CONTEXTS: tuple[Context, ...] = ("flat", "rough", "incline")
+
+
+def training_cells(context: str, cfg: BenchmarkConfig, episode: EpisodeConfig | None = None) -> list[Cell]:
+    """Terrain cells of a training context (one per tile variant)."""
+    episode = episode or EpisodeConfig()
+    if context == "flat":
+        return grid_cells("flat", cfg.terrain)
+    if context == "incline":
+        return grid_cells("incline", cfg.terrain)
+    if context == "rough":
+        base = grid_cells("flat", cfg.terrain)[0]
+        top = cfg.terrain.num_roughness_levels - 1
+        extents = episode.rough_max_extent_m * np.arange(1, episode.rough_variants + 1) / episode.rough_variants
+        return [
+            replace(
+                base,
+                roughness_extent_m=float(e),
+                # Nearest benchmark level, for bookkeeping only; the extent is what is built.
+                roughness_level=int(round(e / cfg.terrain.max_roughness_extent_m * top)),
+                context="rough",
+            )
+            for e in extents
+        ]
+    raise ValueError(f"unknown training context {context!r}; choose one of: {', '.join(CONTEXTS)}")
+
+
+def make_training_worlds(
+    context: str, cfg: BenchmarkConfig, seed: int, episode: EpisodeConfig | None = None
+) -> list[World]:
+    """Compiled worlds of a training context; tiles depend only on ``seed`` and the variant.
+
+    Friction is the nominal 1.0 here; domain randomisation overrides it per episode.
+    """
+    cells = training_cells(context, cfg, episode)
+    return [build_world(cell, cfg, ContextConfig(), seed, variant=i) for i, cell in enumerate(cells)]
