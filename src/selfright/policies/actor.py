@@ -1,0 +1,219 @@
+"""The shippable actor: observation normaliser + MLP, deterministic (mean) action.
+
+A trained actor travels in three forms, all built here:
+
+- an rsl_rl training checkpoint (``model_<it>.pt``: ``actor_state_dict`` from PPO, or
+  ``student_state_dict`` from distillation), converted by ``actor_from_checkpoint``;
+- a policy file (``.pt``): the actor's ``state_dict`` plus metadata, nothing else, so it
+  loads with ``torch.load(..., weights_only=True)`` (``save_actor_file`` / ``load_actor_file``);
+- an ONNX graph ``obs (batch, D) -> actions (batch, J)`` (``export_onnx``).
+
+The MLP's layer names match rsl_rl's ``MLPModel.mlp`` (``mlp.0.weight`` ...), so weights
+copy over unchanged.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import re
+import warnings
+from collections import OrderedDict
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+from rsl_rl.utils import resolve_nn_activation
+from torch import nn
+
+FILE_FORMAT = "selfright.actor"
+FILE_VERSION = 1
+RSL_RL_NORMALIZER_EPS = 1e-2
+"""``EmpiricalNormalization``'s default eps: rsl_rl normalises as (x − mean) / (std + eps)."""
+GROUP_BY_DIM = {42: "student", 79: "teacher"}
+"""Observation group by input size (A1: 9 + 3·12 = 42; + 37 privileged = 79)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ActorMeta:
+    """What a policy file records besides the weights."""
+
+    obs_group: str
+    """Observation group read: ``student`` or ``teacher``."""
+    obs_dim: int
+    """Input size D."""
+    action_dim: int
+    """Output size J (joints)."""
+    hidden_dims: tuple[int, ...]
+    """Hidden layer widths."""
+    activation: str
+    """Hidden activation (rsl_rl name)."""
+    obs_normalization: bool
+    """Whether inputs are normalised by the stored running mean/std."""
+    normalizer_eps: float = RSL_RL_NORMALIZER_EPS
+    """eps of (x − mean) / (std + eps)."""
+    role: str = ""
+    """``teacher`` or ``student`` (how it was trained)."""
+    context: str = ""
+    """Training context (flat, rough, incline)."""
+    iteration: int = -1
+    """Learning iteration of the checkpoint it came from."""
+    source: str = ""
+    """Checkpoint it was exported from."""
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["hidden_dims"] = list(self.hidden_dims)
+        return d
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> ActorMeta:
+        d = dict(d)
+        d["hidden_dims"] = tuple(int(h) for h in d["hidden_dims"])
+        known = ActorMeta.__dataclass_fields__
+        return ActorMeta(**{k: v for k, v in d.items() if k in known})
+
+
+class ActorMLP(nn.Module):
+    """Deterministic actor: ``mlp((obs − mean) / (std + eps))``, obs (k, D) -> actions (k, J)."""
+
+    def __init__(self, meta: ActorMeta):
+        super().__init__()
+        self.meta = meta
+        self.eps = float(meta.normalizer_eps)
+        self.obs_normalization = bool(meta.obs_normalization)
+        self.register_buffer("obs_mean", torch.zeros(meta.obs_dim))
+        self.register_buffer("obs_std", torch.ones(meta.obs_dim))
+        dims = [meta.obs_dim, *meta.hidden_dims]
+        layers: list[nn.Module] = []
+        for a, b in zip(dims[:-1], dims[1:]):
+            layers += [nn.Linear(a, b), resolve_nn_activation(meta.activation)]
+        layers.append(nn.Linear(dims[-1], meta.action_dim))
+        self.mlp = nn.Sequential(*layers)
+
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        x = obs
+        if self.obs_normalization:
+            x = (x - self.obs_mean) / (self.obs_std + self.eps)
+        return self.mlp(x)
+
+
+# --------------------------------------------------------------- checkpoints
+def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = None) -> ActorMLP:
+    """The deployable actor of an rsl_rl checkpoint (the student if distilled, else the PPO actor).
+
+    Architecture is read off the weights; ``hint`` (e.g. the run's ``train_meta.json``
+    ``policy`` entry, or the checkpoint's ``infos``) supplies the activation, role and context.
+    Raises ``ValueError`` if the dict holds no actor.
+    """
+    hint = dict(hint or {})
+    if "student_state_dict" in ckpt:
+        sd, role = ckpt["student_state_dict"], "student"
+    elif "actor_state_dict" in ckpt:
+        sd, role = ckpt["actor_state_dict"], "teacher"
+    else:
+        raise ValueError("checkpoint holds neither 'actor_state_dict' nor 'student_state_dict'")
+    layers = sorted(
+        (int(m.group(1)), k) for k in sd if (m := re.fullmatch(r"mlp\.(\d+)\.weight", k)) is not None
+    )
+    if not layers:
+        raise ValueError("checkpoint actor has no MLP weights (mlp.<i>.weight)")
+    shapes = [tuple(sd[k].shape) for _, k in layers]
+    obs_dim = shapes[0][1]
+    normalized = "obs_normalizer._mean" in sd
+    meta = ActorMeta(
+        obs_group=hint.get("obs_group") or GROUP_BY_DIM.get(obs_dim, "teacher" if role == "teacher" else "student"),
+        obs_dim=obs_dim,
+        action_dim=shapes[-1][0],
+        hidden_dims=tuple(s[0] for s in shapes[:-1]),
+        activation=hint.get("activation", "elu"),
+        obs_normalization=normalized,
+        role=hint.get("role", role),
+        context=hint.get("context", ""),
+        iteration=int(ckpt.get("iter", -1)),
+        source=str(hint.get("source", "")),
+    )
+    actor = ActorMLP(meta)
+    state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))
+    if normalized:
+        state["obs_mean"] = sd["obs_normalizer._mean"].reshape(-1)
+        state["obs_std"] = sd["obs_normalizer._std"].reshape(-1)
+    else:
+        state["obs_mean"] = actor.obs_mean
+        state["obs_std"] = actor.obs_std
+    actor.load_state_dict(state)
+    return actor.eval()
+
+
+# ---------------------------------------------------------------- policy file
+def actor_payload(actor: ActorMLP) -> dict[str, Any]:
+    """The policy-file content: plain tensors and primitives only (``weights_only``-safe)."""
+    sd = OrderedDict((k, v.detach().cpu().clone()) for k, v in actor.state_dict().items())
+    return {"format": FILE_FORMAT, "version": FILE_VERSION, "meta": actor.meta.to_dict(), "state_dict": sd}
+
+
+def save_actor_file(path: str | Path, actor: ActorMLP) -> None:
+    """Write the policy file of ``actor`` (``.pt``)."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    torch.save(actor_payload(actor), path)
+
+
+def actor_from_payload(payload: Any) -> ActorMLP:
+    """Rebuild an actor from a policy-file dict; ``ValueError`` if it is not one."""
+    if not isinstance(payload, dict) or payload.get("format") != FILE_FORMAT:
+        raise ValueError(f"not a selfright policy file (expected format {FILE_FORMAT!r})")
+    if int(payload.get("version", 0)) > FILE_VERSION:
+        raise ValueError(f"policy file version {payload.get('version')} is newer than supported ({FILE_VERSION})")
+    try:
+        actor = ActorMLP(ActorMeta.from_dict(payload["meta"]))
+        actor.load_state_dict(payload["state_dict"])
+    except (KeyError, TypeError, RuntimeError) as e:
+        raise ValueError(f"policy file is inconsistent: {str(e).splitlines()[0]}") from e
+    return actor.eval()
+
+
+def load_actor_file(path: str | Path) -> ActorMLP:
+    """Load a policy file written by ``save_actor_file`` (``weights_only=True``)."""
+    return actor_from_payload(torch.load(path, map_location="cpu", weights_only=True))
+
+
+# ----------------------------------------------------------------------- ONNX
+def export_onnx(actor: ActorMLP, path: str | Path) -> None:
+    """Write ``actor`` as ONNX: input ``obs`` (batch, D) float32 -> output ``actions`` (batch, J).
+
+    The metadata (``ActorMeta``) is stored in the model's ``metadata_props`` (values as JSON).
+    """
+    import onnx
+
+    actor = actor.eval()
+    quiet = [logging.getLogger(n) for n in ("torch.onnx", "torch.export", "torch._dynamo")]
+    levels = [lg.level for lg in quiet]
+    try:
+        for lg in quiet:
+            lg.setLevel(logging.ERROR)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            program = torch.onnx.export(
+                actor,
+                (torch.zeros(1, actor.meta.obs_dim),),
+                None,
+                input_names=["obs"],
+                output_names=["actions"],
+                dynamic_shapes=({0: torch.export.Dim("batch")},),
+                opset_version=18,
+                dynamo=True,
+                verbose=False,
+            )
+    finally:
+        for lg, level in zip(quiet, levels):
+            lg.setLevel(level)
+    proto = program.model_proto
+    for key, value in actor.meta.to_dict().items():
+        prop = proto.metadata_props.add()
+        prop.key, prop.value = key, json.dumps(value)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    buf = io.BytesIO()
+    onnx.save(proto, buf)
+    Path(path).write_bytes(buf.getvalue())

@@ -1,0 +1,180 @@
+"""Learned policies from files: selfright policy files, rsl_rl checkpoints, ONNX, TorchScript.
+
+``load_policy_file`` decides the format from the file itself and the observation group
+(``student`` 42-D, ``teacher`` 79-D) from the stored metadata or the network's input size.
+Every policy acts deterministically (the mean action). Any file that cannot be used ends in
+one ``ValueError`` line naming the file and what to do.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from selfright.policies.actor import GROUP_BY_DIM, FILE_FORMAT, actor_from_checkpoint, actor_from_payload
+from selfright.policies.base import Policy
+
+TORCH_SUFFIXES = (".pt", ".pth", ".jit", ".ts")
+TRAIN_META = "train_meta.json"
+
+
+class TorchPolicy(Policy):
+    """A torch module ``obs (k, D) -> actions (k, J)`` reading one observation group."""
+
+    def __init__(self, module: Callable[[torch.Tensor], torch.Tensor], group: str, name: str):
+        self.module = module
+        self.group = group
+        self.name = name
+
+    @torch.no_grad()
+    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
+        return self.module(obs[self.group].float()).float()
+
+
+class OnnxPolicy(Policy):
+    """An ONNX graph ``obs (k, D) -> actions (k, J)`` run by onnxruntime on the CPU."""
+
+    def __init__(self, session: Any, group: str, name: str):
+        self.session = session
+        self.input_name = session.get_inputs()[0].name
+        self.group = group
+        self.name = name
+
+    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
+        x = obs[self.group].detach().cpu().numpy().astype(np.float32)
+        return torch.from_numpy(self.session.run(None, {self.input_name: x})[0]).float()
+
+
+def load_policy_file(path: str | Path) -> Policy:
+    """A deterministic ``Policy`` from ``path``.
+
+    Accepted: ``.pt`` policy files from ``selfright export`` (loaded with
+    ``weights_only=True``), rsl_rl training checkpoints ``model_<it>.pt``, ``.onnx`` graphs,
+    and TorchScript ``.pt``/``.jit`` modules. Raises ``ValueError`` (one line) otherwise.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"policy file {p} not found; pass a .pt, .jit or .onnx policy (see `selfright export`)")
+    if not p.is_file():
+        raise ValueError(f"policy path {p} is not a file; pass a .pt, .jit or .onnx policy file")
+    if p.suffix == ".onnx":
+        policy = _load_onnx(p)
+    elif p.suffix in TORCH_SUFFIXES:
+        policy = _load_jit(p) if _is_torchscript(p) else _load_torch(p)
+    else:
+        raise ValueError(f"policy file {p} has unsupported type {p.suffix!r}; use .pt, .jit or .onnx")
+    _probe(policy, p)
+    return policy
+
+
+# ------------------------------------------------------------------- formats
+def _load_torch(p: Path) -> Policy:
+    try:
+        payload = torch.load(p, map_location="cpu", weights_only=True)
+    except Exception as e:  # noqa: BLE001 - any unpickling failure means the same to the user
+        raise ValueError(
+            f"policy file {p} is corrupt or not a weights-only torch file ({type(e).__name__}); "
+            "re-export it with `selfright export`"
+        ) from e
+    if isinstance(payload, dict) and payload.get("format") == FILE_FORMAT:
+        actor = _wrap(p, actor_from_payload, payload)
+    elif isinstance(payload, dict) and ("actor_state_dict" in payload or "student_state_dict" in payload):
+        hint = dict(payload.get("infos") or {}) or _run_hint(p)
+        actor = _wrap(p, actor_from_checkpoint, payload, hint)
+    else:
+        raise ValueError(f"policy file {p} holds no actor; pass a file from `selfright export` or a training checkpoint")
+    return TorchPolicy(actor, actor.meta.obs_group, p.stem)
+
+
+def _load_jit(p: Path) -> Policy:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # TorchScript is deprecated, still supported
+            module = torch.jit.load(str(p), map_location="cpu").eval()
+    except Exception as e:  # noqa: BLE001
+        raise ValueError(f"TorchScript policy {p} cannot be loaded ({_first_line(e)})") from e
+    dim = next((t.shape[-1] for t in module.state_dict().values() if t.dim() == 2), None)
+    group = GROUP_BY_DIM.get(int(dim)) if dim is not None else None
+    if group is None:
+        raise ValueError(f"TorchScript policy {p}: input size {dim} matches no observation group {GROUP_BY_DIM}")
+    return TorchPolicy(module, group, p.stem)
+
+
+def _load_onnx(p: Path) -> Policy:
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = 1
+    opts.inter_op_num_threads = 1
+    try:
+        session = ort.InferenceSession(str(p), sess_options=opts, providers=["CPUExecutionProvider"])
+    except Exception as e:  # noqa: BLE001
+        raise ValueError(f"ONNX policy {p} cannot be loaded ({_first_line(e)})") from e
+    props = session.get_modelmeta().custom_metadata_map
+    group = _json_or_none(props.get("obs_group"))
+    if group is None:
+        dim = session.get_inputs()[0].shape[-1]
+        group = GROUP_BY_DIM.get(dim) if isinstance(dim, int) else None
+    if group not in GROUP_BY_DIM.values():
+        raise ValueError(f"ONNX policy {p}: cannot tell its observation group (no metadata, input size unknown)")
+    return OnnxPolicy(session, group, p.stem)
+
+
+# ------------------------------------------------------------------- helpers
+def _is_torchscript(p: Path) -> bool:
+    """TorchScript archives are zip files with a ``code/`` folder and ``constants.pkl``."""
+    if not zipfile.is_zipfile(p):
+        return False
+    with zipfile.ZipFile(p) as z:
+        names = z.namelist()
+    return any(n.endswith("/constants.pkl") for n in names) and any("/code/" in n for n in names)
+
+
+def _run_hint(p: Path) -> dict[str, Any]:
+    """The ``policy`` entry of the run's ``train_meta.json`` next to a checkpoint, if any."""
+    meta = p.parent / TRAIN_META
+    try:
+        data = json.loads(meta.read_text())
+        return {**data.get("policy", {}), "source": str(p)}
+    except (OSError, ValueError):
+        return {"source": str(p)}
+
+
+def _wrap(p: Path, fn: Callable[..., Any], *args: Any) -> Any:
+    try:
+        return fn(*args)
+    except (ValueError, KeyError, RuntimeError, TypeError) as e:
+        raise ValueError(f"policy file {p}: {_first_line(e)}") from e
+
+
+def _probe(policy: Policy, p: Path) -> None:
+    """Run the policy once on zeros so a broken file fails at load time, not mid-evaluation."""
+    dim = {v: k for k, v in GROUP_BY_DIM.items()}[policy.group]
+    obs = {policy.group: torch.zeros(1, dim)}
+    try:
+        out = policy.act(obs, np.zeros(1, dtype=np.int64), [None])
+    except Exception as e:  # noqa: BLE001
+        raise ValueError(f"policy file {p} does not run on {policy.group} observations ({_first_line(e)})") from e
+    if out.dim() != 2 or out.shape[0] != 1 or not torch.isfinite(out).all():
+        raise ValueError(f"policy file {p} returns {tuple(out.shape)} instead of finite (batch, joints) actions")
+
+
+def _json_or_none(s: str | None) -> Any:
+    if s is None:
+        return None
+    try:
+        return json.loads(s)
+    except ValueError:
+        return s
+
+
+def _first_line(e: BaseException) -> str:
+    text = str(e).strip() or type(e).__name__
+    return text.splitlines()[0][:200]
