@@ -126,7 +126,7 @@ def _run_batch(
     success = np.zeros(len(batch), dtype=bool)
     active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
     while len(active):
-        obs = env.observe(active)
+        obs = env.observe(active, policy.groups)
         with torch.no_grad():
             actions = policy.act(obs, active, [contexts[i] for i in active])
         out = env.step(actions, active)

@@ -20,6 +20,8 @@ class Policy(abc.ABC):
     """
 
     name: str = "policy"
+    groups: tuple[str, ...] = ("student", "teacher")
+    """Observation groups ``act`` reads (the env computes only these)."""
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:  # noqa: B027 - optional hook
         """Forget per-episode memory of slots ``ids`` (called when their episodes start).

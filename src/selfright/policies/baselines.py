@@ -24,7 +24,9 @@ def _joint_angles(obs: torch.Tensor, robot: RobotSpec) -> torch.Tensor:
 class _TargetPolicy(Policy):
     """Base for scripted controllers that think in joint targets rather than actions."""
 
-    def __init__(self, robot: RobotSpec, action_scale: float, num_slots: int = 0):
+    groups = ("student",)
+
+    def __init__(self, robot: RobotSpec, action_scale: float):
         self.robot = robot
         self.scale = action_scale
 
@@ -61,6 +63,7 @@ class RandomPolicy(Policy):
     """Uniform random actions in [-1, 1], from a generator seeded per episode."""
 
     name = "random"
+    groups = ("student",)
 
     def __init__(self, num_joints: int):
         self.nj = num_joints

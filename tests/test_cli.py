@@ -1,0 +1,89 @@
+import json
+import os
+import subprocess
+import sys
+
+import mujoco
+import pytest
+
+from selfright.cli import main
+
+
+def run_cli(args, capsys):
+    code = main(args)
+    return code, capsys.readouterr()
+
+
+def assert_clean_error(code, cap, fragment):
+    assert code == 2
+    lines = [l for l in cap.err.strip().splitlines() if l]
+    assert len(lines) == 1 and lines[0].startswith("selfright: error:") and fragment in lines[0]
+
+
+def test_unknown_policy(tmp_path, capsys):
+    code, cap = run_cli(["evaluate", "--policy", "nope", "--grid", "tiny", "--out", str(tmp_path / "o")], capsys)
+    assert_clean_error(code, cap, "unknown policy")
+    assert not (tmp_path / "o" / "run.json").exists()
+
+
+def test_missing_and_corrupt_policy_files(tmp_path, capsys):
+    code, cap = run_cli(["evaluate", "--policy", str(tmp_path / "missing.onnx"), "--grid", "tiny", "--out", str(tmp_path / "o")], capsys)
+    assert_clean_error(code, cap, "does not exist")
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    code, cap = run_cli(["evaluate", "--policy", str(bad), "--grid", "tiny", "--out", str(tmp_path / "o")], capsys)
+    assert code == 2 and cap.err.startswith("selfright: error:")
+    assert not (tmp_path / "o" / "episodes.csv").exists()
+
+
+def test_unknown_grid_exits_2(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "selfright.cli", "evaluate", "--grid", "huge", "--out", str(tmp_path)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "huge" in proc.stderr
+
+
+def test_unwritable_out(tmp_path, capsys):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    if os.access(ro, os.W_OK):  # running as root: permissions do not bind, use a file as the parent
+        blocker = tmp_path / "file"
+        blocker.write_text("x")
+        target = blocker / "out"
+    else:
+        target = ro / "out"
+    code, cap = run_cli(["evaluate", "--policy", "zero", "--grid", "tiny", "--out", str(target)], capsys)
+    assert_clean_error(code, cap, "cannot write")
+
+
+def test_out_of_range_level(tmp_path, capsys):
+    code, cap = run_cli(["scene", "--slope-level", "11", "--out", str(tmp_path / "s.xml")], capsys)
+    assert_clean_error(code, cap, "out of range")
+
+
+def test_scene_export_loads(tmp_path, capsys):
+    out = tmp_path / "scene.xml"
+    code, cap = run_cli(["scene", "--slope-level", "3", "--roughness-level", "5", "--out", str(out), "--wall-gap-ratio", "1.5"], capsys)
+    assert code == 0
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert m.body("trunk").id > 0 and m.nu == 12
+    d = mujoco.MjData(m)
+    mujoco.mj_step(m, d)
+
+
+def test_bench_sim_prints_json(capsys):
+    code, cap = run_cli(["bench-sim", "--envs", "4", "--seconds", "0.3"], capsys)
+    assert code == 0
+    rec = json.loads(cap.out.strip().splitlines()[-1])
+    assert {"env_steps_per_s", "physics_steps_per_env_step", "num_envs", "backend", "threads"} <= set(rec)
+    assert rec["num_envs"] == 4 and rec["env_steps_per_s"] > 0
+
+
+def test_evaluate_end_to_end_with_plots(tmp_path, capsys):
+    out = tmp_path / "ev"
+    code, cap = run_cli(["evaluate", "--policy", "open-loop", "--grid", "tiny", "--episodes", "1", "--episode-s", "1",
+                         "--out", str(out), "--no-progress"], capsys)
+    assert code == 0, cap.err
+    for name in ("episodes.csv", "summary.json", "success.png", "ttr.png", "dtr.png", "ttr_hist.png", "dtr_hist.png"):
+        assert (out / name).stat().st_size > 0
+    assert "overall:" in cap.out

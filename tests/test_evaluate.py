@@ -1,0 +1,86 @@
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from selfright.config import BenchmarkConfig, GoalConfig
+from selfright.evaluate.results import COLUMNS, ResultsError
+from selfright.evaluate.runner import evaluate_grid
+from selfright.evaluate.metrics import wilson_interval
+from selfright.policies.registry import make_policy
+
+# Short episodes keep the tier fast; the logic is the same at 10 s.
+CFG = BenchmarkConfig(goal=GoalConfig(episode_s=1.0, hold_s=0.2))
+
+
+def run(out: Path, policy="random", episodes=2, seed=0, cfg=CFG):
+    return evaluate_grid(make_policy(policy, cfg), policy_name=policy, grid="tiny", episodes=episodes, seed=seed,
+                         out_dir=out, cfg=cfg, progress=False)
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref")
+    run(out)
+    return out
+
+
+def test_result_files_follow_the_contract(reference):
+    with (reference / "episodes.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert tuple(rows[0].keys()) == COLUMNS
+    assert len(rows) == 4 * 2
+    for r in rows:
+        assert r["success"] in ("0", "1")
+        if r["success"] == "0":
+            assert r["ttr_s"] == "" and r["dtr_m"] == ""
+        assert float(r["energy_j"]) >= 0
+    s = json.loads((reference / "summary.json").read_text())
+    assert s["policy"] == "random" and s["grid"] == "tiny" and s["episodes_per_cell"] == 2
+    assert "config" in s and s["config"]["goal"]["episode_s"] == 1.0
+    assert len(s["cells"]) == 4
+    for c in s["cells"]:
+        assert {"slope_level", "roughness_level", "n", "success_rate", "success_ci95", "ttr_mean_s", "dtr_mean_m"} <= set(c)
+        assert c["n"] == 2
+    assert s["overall"]["n"] == 8
+    rough = {(c["slope_level"], c["roughness_level"]): c["roughness_R"] for c in s["cells"]}
+    assert rough[(0, 0)] == pytest.approx(0, abs=1e-9) and rough[(0, 1)] > 0
+
+
+def test_same_seed_identical_episodes(reference, tmp_path):
+    run(tmp_path)
+    assert (tmp_path / "episodes.csv").read_bytes() == (reference / "episodes.csv").read_bytes()
+
+
+def test_other_seed_differs(reference, tmp_path):
+    run(tmp_path, seed=1)
+    assert (tmp_path / "episodes.csv").read_bytes() != (reference / "episodes.csv").read_bytes()
+
+
+def test_resume_after_interruption_loses_and_duplicates_nothing(reference, tmp_path):
+    run(tmp_path)
+    path = tmp_path / "episodes.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    # Keep header + 3 rows, then a torn half line as a kill mid-write would leave.
+    path.write_text("".join(lines[:4]) + lines[4][: len(lines[4]) // 2])
+    res = run(tmp_path)
+    assert res.episodes_run == 5
+    assert path.read_bytes() == (reference / "episodes.csv").read_bytes()
+    again = run(tmp_path)
+    assert again.episodes_run == 0
+    assert path.read_bytes() == (reference / "episodes.csv").read_bytes()
+
+
+def test_resume_refuses_a_different_run(reference, tmp_path):
+    run(tmp_path)
+    with pytest.raises(ResultsError, match="different run"):
+        run(tmp_path, seed=5)
+
+
+def test_wilson_interval_known_values():
+    lo, hi = wilson_interval(8, 10)
+    assert lo == pytest.approx(0.4902, abs=1e-3) and hi == pytest.approx(0.9433, abs=1e-3)
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    lo, hi = wilson_interval(0, 20)
+    assert lo == 0.0 and hi == pytest.approx(0.1611, abs=1e-3)

@@ -1,0 +1,76 @@
+import mujoco
+import numpy as np
+import pytest
+
+from selfright.config import BenchmarkConfig, ContextConfig
+from selfright.env.world import build_world
+from selfright.robots import get_robot
+from selfright.terrain import make_cell
+
+ROBOT = get_robot("a1")
+
+
+@pytest.fixture(scope="module")
+def world():
+    cfg = BenchmarkConfig()
+    return build_world(make_cell(0, 0, cfg.terrain), cfg, ContextConfig(), 0)
+
+
+def test_model_facts(world):
+    m = world.model
+    trunk = m.body("trunk").id
+    robot_bodies = [b for b in range(m.nbody) if m.body_rootid[b] == trunk]
+    assert 12.0 <= m.body_mass[robot_bodies].sum() <= 12.6
+    assert m.nu == 12
+    assert np.allclose(m.actuator_forcerange, [[-33.5, 33.5]] * 12)
+    for g in ROBOT.foot_geoms:
+        assert m.geom(g).type[0] == mujoco.mjtGeom.mjGEOM_SPHERE
+    for j, lo, hi in zip(ROBOT.joint_names, ROBOT.joint_low, ROBOT.joint_high):
+        assert m.joint(j).range == pytest.approx([lo, hi])
+    robot_geoms = [g for g in range(m.ngeom) if m.body_rootid[m.geom_bodyid[g]] == trunk]
+    allowed = {int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_BOX)}
+    assert robot_geoms and all(int(m.geom_type[g]) in allowed for g in robot_geoms)
+    assert np.all(m.geom_margin == 0)
+
+
+def _run(world, qpos, ctrl, steps):
+    m = world.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    d.ctrl[:] = ctrl
+    traj = []
+    for _ in range(steps):
+        mujoco.mj_step(m, d)
+        traj.append(d.qpos.copy())
+    return d, np.array(traj)
+
+
+def test_stands_in_standing_pose_without_drifting(world):
+    qpos = np.concatenate([[0, 0, 0.37, 1, 0, 0, 0], ROBOT.stand_pose])
+    d, traj = _run(world, qpos, ROBOT.stand_pose, 1200)  # 6 s
+    late = traj[400:]  # after landing
+    assert np.ptp(late[:, 0]) < 0.01 and np.ptp(late[:, 1]) < 0.01   # no drift
+    w, x, y, _ = d.qpos[3:7]
+    assert 1 - 2 * (x * x + y * y) > np.cos(np.radians(3))  # trunk within 3° of level
+    assert d.qpos[2] > 0.32
+    assert np.abs(d.qvel).max() < 0.05
+
+
+def test_stands_in_nominal_pose(world):
+    qpos = np.concatenate([[0, 0, 0.32, 1, 0, 0, 0], ROBOT.nominal_pose])
+    d, traj = _run(world, qpos, ROBOT.nominal_pose, 1200)
+    assert np.ptp(traj[400:, 0]) < 0.01
+    assert 0.22 < d.qpos[2] < 0.30
+    assert np.abs(d.qvel).max() < 0.05
+
+
+def test_falls_believably(world):
+    # Dropped upside down from one body length: lands, bounces at most a little, comes to rest
+    # on its back, never penetrates the ground deeply, never diverges.
+    qpos = np.concatenate([[0, 0, 0.5, 0, 1, 0, 0], ROBOT.nominal_pose])
+    d, traj = _run(world, qpos, ROBOT.nominal_pose, 600)
+    assert np.isfinite(traj).all()
+    assert traj[:, 2].min() > 0.0
+    assert d.qpos[2] < 0.2
+    assert np.abs(d.qvel).max() < 0.5
+    assert np.linalg.norm(traj[-1, :2]) < 0.3
