@@ -1,0 +1,124 @@
+"""``selfright train`` and ``selfright export``: argument dataclasses (tyro subcommands) and
+the functions that run them.
+
+Also runnable on its own: ``python -m selfright.train.commands train --role teacher ...``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from selfright.config import BenchmarkConfig
+from selfright.train.config import Context, Role, TrainConfig
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainArgs:
+    """Train a teacher (PPO, privileged observations) or distil a student from a teacher."""
+
+    out: Path
+    """Run folder: checkpoints, tensorboard logs, train_meta.json."""
+    role: Role = "teacher"
+    """teacher: PPO on the teacher observations; student: distillation from --teacher."""
+    context: Context = "flat"
+    """Training context: flat plane, rough level ground, or 20° incline."""
+    teacher: Path | None = None
+    """Teacher run folder (its latest checkpoint) or checkpoint file; needed for --role student."""
+    envs: int = 64
+    """Parallel environments (64–256 suit a few CPU cores)."""
+    iterations: int = 10_000
+    """Total learning iterations of the run (a resumed run continues up to this number)."""
+    resume: bool = False
+    """Continue the run in --out from its latest checkpoint."""
+    seed: int = 0
+    """Seed of the terrain tiles, the episodes and the network initialisation."""
+    physics_threads: int = 1
+    """MuJoCo worker threads stepping the environments."""
+    torch_threads: int = 1
+    """Threads torch uses for the network updates."""
+    train: TrainConfig = field(default_factory=TrainConfig)
+    """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ExportArgs:
+    """Export a checkpoint's actor (the student if distilled) for deployment and evaluation."""
+
+    checkpoint: Path
+    """Training checkpoint model_<it>.pt, or a run folder (its latest checkpoint)."""
+    onnx: Path | None = None
+    """ONNX output (obs -> mean action); default: <checkpoint>_policy.onnx next to it."""
+    policy: Path | None = None
+    """Policy file output (.pt, weights_only-loadable); default: the ONNX path with suffix .pt."""
+
+
+def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
+    """Run ``selfright train``; returns the final checkpoint. User errors raise ``ValueError``."""
+    from selfright.train.runner import RunSpec, run_training
+
+    spec = RunSpec(
+        role=args.role,
+        context=args.context,
+        out=args.out,
+        num_envs=args.envs,
+        iterations=args.iterations,
+        seed=args.seed,
+        resume=args.resume,
+        teacher=args.teacher,
+        physics_threads=args.physics_threads,
+        torch_threads=args.torch_threads,
+        train=args.train,
+        bench=bench or BenchmarkConfig(),
+    )
+    return run_training(spec)
+
+
+def export(args: ExportArgs) -> tuple[Path, Path]:
+    """Run ``selfright export``; returns (onnx path, policy file path). User errors raise ``ValueError``."""
+    import torch
+
+    from selfright.policies.actor import actor_from_checkpoint, export_onnx, save_actor_file
+    from selfright.train.runner import latest_checkpoint, read_meta
+
+    if not args.checkpoint.exists():
+        raise ValueError(f"checkpoint {args.checkpoint} not found; pass a model_<it>.pt or a run folder")
+    ckpt = latest_checkpoint(args.checkpoint)
+    try:
+        data = torch.load(ckpt, map_location="cpu", weights_only=False)
+    except Exception as e:  # noqa: BLE001 - any unpickling failure means the same to the user
+        raise ValueError(f"checkpoint {ckpt} cannot be read ({str(e).splitlines()[0][:200]})") from e
+    if not isinstance(data, dict):
+        raise ValueError(f"{ckpt} is not a training checkpoint")
+    hint = dict(data.get("infos") or read_meta(ckpt.parent).get("policy") or {})
+    hint["source"] = str(ckpt)
+    actor = actor_from_checkpoint(data, hint)
+    onnx_path = args.onnx or ckpt.with_name(f"{ckpt.stem}_policy.onnx")
+    policy_path = args.policy or onnx_path.with_suffix(".pt")
+    if policy_path.resolve() == ckpt.resolve():
+        policy_path = ckpt.with_name(f"{ckpt.stem}_policy.pt")
+    export_onnx(actor, onnx_path)
+    save_actor_file(policy_path, actor)
+    print(f"exported {actor.meta.obs_group} actor ({actor.meta.role}, {actor.meta.context or 'context ?'}) "
+          f"of {ckpt}: {onnx_path}, {policy_path}")
+    return onnx_path, policy_path
+
+
+def main() -> None:
+    """Stand-alone entry point (the package CLI wires the same dataclasses)."""
+    import sys
+
+    import tyro
+
+    args = tyro.extras.subcommand_cli_from_dict({"train": TrainArgs, "export": ExportArgs})
+    try:
+        if isinstance(args, TrainArgs):
+            train(args)
+        else:
+            export(args)
+    except ValueError as e:
+        sys.exit(f"error: {e}")
+
+
+if __name__ == "__main__":
+    main()

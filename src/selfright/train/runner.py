@@ -1,0 +1,369 @@
+"""Training runs: rsl_rl's ``OnPolicyRunner`` (teacher PPO) and ``DistillationRunner``
+(student), plus what a long CPU run needs around them: time-based checkpoints, resume from
+the latest checkpoint, a one-line progress report, clean stop on SIGINT/SIGTERM, and
+``train_meta.json`` for model cards.
+
+Run directory layout (``--out``)::
+
+    model_<it>.pt      rsl_rl checkpoints (``infos`` holds the policy metadata)
+    events.out.tfevents.*   tensorboard logs (rewards per term, losses, FPS)
+    train_meta.json    context, role, env steps, wall-clock, device, command lines
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import platform
+import re
+import shlex
+import signal
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import torch
+from rsl_rl.runners import DistillationRunner, OnPolicyRunner
+from rsl_rl.utils.logger import Logger
+
+from selfright.config import BenchmarkConfig, to_dict
+from selfright.train.config import PolicyConfig, Role, TrainConfig
+from selfright.train.contexts import make_training_worlds
+from selfright.train.vecenv import RecoveryVecEnv
+
+META_FILE = "train_meta.json"
+CHECKPOINT_RE = re.compile(r"model_(\d+)\.pt")
+PROGRESS_EVERY_S = 10.0
+"""Seconds between one-line progress reports (the first iterations always report)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunSpec:
+    """A resolved training request (what ``commands.TrainArgs`` turns into)."""
+
+    role: Role
+    context: str
+    out: Path
+    num_envs: int
+    iterations: int
+    """Total learning iterations of the run, counting those before a resume."""
+    seed: int
+    resume: bool
+    teacher: Path | None
+    physics_threads: int
+    torch_threads: int
+    train: TrainConfig = field(default_factory=TrainConfig)
+    bench: BenchmarkConfig = field(default_factory=BenchmarkConfig)
+    quiet: bool = False
+    """Suppress the progress lines (tests)."""
+
+
+# ------------------------------------------------------------------ checkpoints
+def list_checkpoints(run_dir: Path) -> list[tuple[int, Path]]:
+    """(iteration, path) of the ``model_<it>.pt`` files in ``run_dir``, ascending."""
+    if not run_dir.is_dir():
+        return []
+    found = [(int(m.group(1)), p) for p in run_dir.iterdir() if (m := CHECKPOINT_RE.fullmatch(p.name))]
+    return sorted(found)
+
+
+def latest_checkpoint(path: Path) -> Path:
+    """``path`` if it is a checkpoint file, else the newest ``model_<it>.pt`` in the folder."""
+    if path.is_file():
+        return path
+    ckpts = list_checkpoints(path)
+    if not ckpts:
+        raise ValueError(f"no checkpoint (model_<it>.pt) in {path}; train there first or pass a checkpoint file")
+    return ckpts[-1][1]
+
+
+def read_meta(run_dir: Path) -> dict[str, Any]:
+    try:
+        return json.loads((run_dir / META_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyConfig, dict[str, Any]]:
+    """The network config of a trained teacher, from its run's ``train_meta.json``, else read off
+    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta."""
+    meta = read_meta(ckpt.parent)
+    pol = meta.get("policy")
+    if pol:
+        return (
+            replace(
+                fallback,
+                hidden_dims=tuple(pol["hidden_dims"]),
+                activation=pol["activation"],
+                obs_normalization=bool(pol["obs_normalization"]),
+            ),
+            meta,
+        )
+    sd = torch.load(ckpt, map_location="cpu", weights_only=False).get("actor_state_dict")
+    if sd is None:
+        raise ValueError(f"{ckpt} is not a teacher checkpoint (no 'actor_state_dict'); pass a teacher run")
+    ws = sorted((int(k.split(".")[1]), v) for k, v in sd.items() if re.fullmatch(r"mlp\.\d+\.weight", k))
+    hidden = tuple(int(w.shape[0]) for _, w in ws[:-1])
+    return replace(fallback, hidden_dims=hidden, obs_normalization="obs_normalizer._mean" in sd), meta
+
+
+# ---------------------------------------------------------------------- logger
+class _StopTraining(Exception):
+    """Raised from the per-iteration hook to leave ``runner.learn`` after a clean save."""
+
+
+class _HookLogger(Logger):
+    """rsl_rl's logger, plus a callback after every iteration and a compact progress line
+    instead of rsl_rl's multi-line console block (tensorboard still gets everything)."""
+
+    def __init__(self, *args: Any, hook: Any, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.hook = hook
+
+    def log(self, it: int, *args: Any, **kwargs: Any) -> None:
+        extras = {k: _mean_extra(self.ep_extras, k) for k in ("Episode/success_rate", "Reward/total")}
+        loss = kwargs.get("loss_dict", {})  # rsl_rl's runner passes every argument by keyword
+        with contextlib.redirect_stdout(io.StringIO()):
+            super().log(it, *args, **kwargs)
+        self.hook(it, extras, loss)
+
+
+def _mean_extra(ep_extras: list[dict], key: str) -> float | None:
+    vals = [float(torch.as_tensor(e[key]).float().mean()) for e in ep_extras if key in e]
+    return sum(vals) / len(vals) if vals else None
+
+
+# ------------------------------------------------------------------------- run
+class TrainingRun:
+    """One invocation of ``selfright train`` (a fresh run or a resumed one)."""
+
+    def __init__(self, spec: RunSpec):
+        self.spec = spec
+        self.out = spec.out
+        self.stop_requested = False
+        self.last_ckpt_time = time.time()
+        self.last_progress = 0.0
+        self.progress_lines = 0
+        self.last_loss: dict[str, float] = {}
+        """Losses of the latest iteration (rsl_rl's loss dict)."""
+
+    # ------------------------------------------------------------- set-up
+    def _check(self) -> None:
+        s = self.spec
+        if s.num_envs < 1:
+            raise ValueError(f"--envs must be ≥ 1 (got {s.num_envs})")
+        if s.iterations < 0:
+            raise ValueError(f"--iterations must be ≥ 0 (got {s.iterations})")
+        if s.role == "student" and s.teacher is None:
+            raise ValueError("--role student needs --teacher RUN_DIR (a trained teacher run or checkpoint)")
+        if s.teacher is not None and not s.teacher.exists():
+            raise ValueError(f"teacher {s.teacher} not found; pass a teacher run folder or model_<it>.pt")
+        has_ckpt = bool(list_checkpoints(self.out))
+        if s.resume and not has_ckpt:
+            raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
+        if not s.resume and has_ckpt:
+            raise ValueError(f"{self.out} already holds checkpoints; pass --resume to continue or choose another --out")
+
+    def setup(self) -> None:
+        s = self.spec
+        self._check()
+        self.out.mkdir(parents=True, exist_ok=True)
+        torch.set_num_threads(s.torch_threads)
+        self.prev_meta = read_meta(self.out) if s.resume else {}
+        self.resume_ckpt = latest_checkpoint(self.out) if s.resume else None
+        self.teacher_ckpt = latest_checkpoint(s.teacher) if s.teacher is not None else None
+        teacher_policy, teacher_meta = (None, {})
+        if s.role == "student":
+            teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
+            if teacher_meta.get("context") not in (None, s.context):
+                print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
+        self.teacher_policy = teacher_policy
+
+        start_it = self._saved_iteration(self.resume_ckpt) + 1 if self.resume_ckpt else 0
+        torch.manual_seed(s.seed + start_it)
+        worlds = make_training_worlds(s.context, s.bench, s.seed, s.train.episode)
+        # A resumed run draws new episodes: the generator is keyed by the start iteration.
+        self.env = RecoveryVecEnv(s.bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads)
+        self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
+        runner_cls = OnPolicyRunner if s.role == "teacher" else DistillationRunner
+        with contextlib.redirect_stdout(io.StringIO()):  # rsl_rl prints the model layouts
+            self.runner = runner_cls(self.env, self.cfg, log_dir=str(self.out), device="cpu")
+        r = self.runner
+        r.logger = _HookLogger(
+            log_dir=str(self.out), cfg=r.cfg, env_cfg=self.env.cfg, num_envs=self.env.num_envs,
+            is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
+            device=r.device, hook=self._on_iteration,
+        )
+        if self.resume_ckpt is not None:
+            r.load(str(self.resume_ckpt))
+            r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
+        elif s.role == "student":
+            r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
+        self.start_it = start_it
+        self.steps_per_it = self.cfg["num_steps_per_env"] * s.num_envs
+        self.base_steps = int(self.prev_meta.get("env_steps", 0))
+        self.base_wall = float(self.prev_meta.get("wall_clock_s", 0.0))
+        self.t0 = time.time()
+
+    @staticmethod
+    def _saved_iteration(ckpt: Path) -> int:
+        m = CHECKPOINT_RE.fullmatch(ckpt.name)
+        if m:
+            return int(m.group(1))
+        return int(torch.load(ckpt, map_location="cpu", weights_only=False).get("iter", 0))
+
+    # -------------------------------------------------------------- metadata
+    def policy_meta(self) -> dict[str, Any]:
+        pol = self.spec.train.policy
+        return {
+            "obs_group": "teacher" if self.spec.role == "teacher" else "student",
+            "hidden_dims": list(pol.hidden_dims),
+            "activation": pol.activation,
+            "obs_normalization": pol.obs_normalization,
+            "role": self.spec.role,
+            "context": self.spec.context,
+        }
+
+    def meta(self, done_it: int, checkpoint: Path | None) -> dict[str, Any]:
+        """``train_meta.json`` after ``done_it`` learning iterations in total."""
+        s = self.spec
+        cmd = shlex.join(sys.argv)
+        return {
+            "role": s.role,
+            "context": s.context,
+            "seed": s.seed,
+            "num_envs": s.num_envs,
+            "iterations_done": done_it,
+            "iterations_target": s.iterations,
+            "env_steps": self.base_steps + (done_it - self.start_it) * self.steps_per_it,
+            "wall_clock_s": round(self.base_wall + time.time() - self.t0, 1),
+            "device": _device_string(s.physics_threads, s.torch_threads),
+            "command_line": cmd,
+            "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
+            "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
+            "latest_checkpoint": str(checkpoint) if checkpoint else None,
+            "policy": self.policy_meta(),
+            "teacher_policy": to_dict(self.teacher_policy) if self.teacher_policy else None,
+            "versions": _versions(),
+            "train_config": to_dict(s.train),
+            "benchmark_config": to_dict(s.bench),
+        }
+
+    def save(self, it: int) -> Path:
+        """Checkpoint after iteration ``it`` (0-based), write the meta file, prune old checkpoints."""
+        path = self.out / f"model_{it}.pt"
+        self.runner.current_learning_iteration = it
+        self.runner.save(str(path), infos={**self.policy_meta(), "source": str(path)})
+        tmp = self.out / (META_FILE + ".tmp")
+        tmp.write_text(json.dumps(self.meta(it + 1, path), indent=2))
+        os.replace(tmp, self.out / META_FILE)
+        keep = self.spec.train.keep_checkpoints
+        if keep > 0:
+            for _, old in list_checkpoints(self.out)[:-keep]:
+                old.unlink(missing_ok=True)
+        self.last_ckpt_time = time.time()
+        return path
+
+    # ---------------------------------------------------------------- hooks
+    def _on_iteration(self, it: int, extras: dict[str, float | None], loss: dict[str, float]) -> None:
+        now = time.time()
+        self.last_loss = dict(loss)
+        if not self.spec.quiet and (now - self.last_progress >= PROGRESS_EVERY_S or self.progress_lines < 3):
+            self._progress(it, extras, loss, now)
+        if self.stop_requested:
+            self.save(it)
+            raise _StopTraining
+        if now - self.last_ckpt_time >= self.spec.train.checkpoint_every_s:
+            self.save(it)
+
+    def _progress(self, it: int, extras: dict[str, float | None], loss: dict[str, float], now: float) -> None:
+        done = it + 1 - self.start_it
+        elapsed = now - self.t0
+        total = self.spec.iterations
+        rate = self.steps_per_it * done / max(elapsed, 1e-9)
+        eta = elapsed / done * (total - it - 1)
+        lb = self.runner.logger
+        ep_ret = f"{sum(lb.rewbuffer) / len(lb.rewbuffer):7.2f}" if lb.rewbuffer else "    n/a"
+        succ = extras.get("Episode/success_rate")
+        losses = " ".join(f"{k} {v:.4f}" for k, v in loss.items())
+        print(
+            f"[{self.spec.role}/{self.spec.context}] it {it + 1}/{total}  "
+            f"steps {self.base_steps + done * self.steps_per_it:,}  {rate:,.0f} steps/s  "
+            f"{60 * done / max(elapsed, 1e-9):.1f} it/min  ep_return {ep_ret}  "
+            f"success {'n/a' if succ is None else f'{succ:.2f}'}  {losses}  "
+            f"elapsed {_hms(elapsed)}  eta {_hms(eta)}",
+            flush=True,
+        )
+        self.last_progress = now
+        self.progress_lines += 1
+
+    def _request_stop(self, signum: int, frame: Any) -> None:
+        if self.stop_requested:  # second signal: give up at once
+            raise KeyboardInterrupt
+        print(f"signal {signum}: stopping after this iteration (checkpoint will be saved)", flush=True)
+        self.stop_requested = True
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> Path:
+        """Train up to ``iterations`` in total; returns the final checkpoint."""
+        remaining = self.spec.iterations - self.start_it
+        if remaining <= 0:
+            print(f"{self.out}: already at {self.start_it} ≥ {self.spec.iterations} iterations; nothing to do")
+            return latest_checkpoint(self.out)
+        old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+        in_main = _is_main_thread()
+        if in_main:
+            for sig in old:
+                signal.signal(sig, self._request_stop)
+        try:
+            with contextlib.redirect_stdout(io.StringIO()) if self.spec.quiet else contextlib.nullcontext():
+                self.runner.learn(remaining, init_at_random_ep_len=True)
+        except _StopTraining:
+            return latest_checkpoint(self.out)
+        finally:
+            if in_main:
+                for sig, handler in old.items():
+                    signal.signal(sig, handler)
+            writer = self.runner.logger.writer
+            if writer is not None and hasattr(writer, "close"):
+                writer.close()
+            self.env.close()
+        # rsl_rl saved model_<last>.pt without metadata; save it again with ours.
+        return self.save(self.runner.current_learning_iteration)
+
+
+def run_training(spec: RunSpec) -> Path:
+    """Set up and run; returns the final checkpoint path."""
+    run = TrainingRun(spec)
+    run.setup()
+    return run.run()
+
+
+# --------------------------------------------------------------------- helpers
+def _device_string(physics_threads: int, torch_threads: int) -> str:
+    cpu = platform.processor() or platform.machine()
+    return f"cpu ({cpu}, {os.cpu_count()} cores; physics threads {physics_threads}, torch threads {torch_threads})"
+
+
+def _versions() -> dict[str, str]:
+    import mujoco
+    import rsl_rl  # noqa: F401
+    from importlib.metadata import version
+
+    return {"rsl_rl_lib": version("rsl-rl-lib"), "torch": torch.__version__, "mujoco": mujoco.__version__,
+            "python": platform.python_version()}
+
+
+def _hms(s: float) -> str:
+    s = int(max(s, 0))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+def _is_main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()

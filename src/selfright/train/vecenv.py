@@ -1,0 +1,161 @@
+"""rsl_rl ``VecEnv`` adapter over ``RecoveryEnv`` for training.
+
+Thin on purpose: rewards come from ``env.rewards``, domain randomisation from
+``env.randomization``, observations from ``RecoveryEnv.observe``. This module only adds
+automatic resets, episode bookkeeping and the extras rsl_rl reads:
+
+- ``extras["time_outs"]`` (n,) bool: the episode hit the time limit (bootstrapped by PPO);
+- ``extras["log"]``: per step, every weighted reward term averaged over envs
+  (``Reward/<term>``); when episodes end, their per-episode sums (``Episode_Reward/<term>``)
+  and outcome rates (``Episode/...``).
+
+Training episodes last ``EpisodeConfig.episode_s`` (10 s) after the fall protocol; they end
+early only on failure (diverged physics or leaving the tile), not on success, so the policy
+learns to keep standing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from rsl_rl.env import VecEnv
+from tensordict import TensorDict
+
+from selfright.config import BenchmarkConfig, to_dict
+from selfright.env.randomization import ModelRandomizer, sample_factors
+from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.rewards import RewardContext, reward_weights, weighted_rewards
+from selfright.env.world import World
+from selfright.train.config import TrainConfig
+
+
+class RecoveryVecEnv(VecEnv):
+    """``num_envs`` auto-resetting training episodes over ``worlds``.
+
+    Args:
+        cfg: benchmark configuration (terrain, robot, sim, fall protocol, goal set).
+        train: training configuration (rewards, randomisation, episode length).
+        worlds: the training context's worlds; each episode draws one uniformly.
+        num_envs: parallel episodes.
+        seed: seeds every episode (fall, world choice, randomisation) through one generator
+            (an int or a tuple of ints, e.g. (run seed, start iteration)).
+        threads: physics worker threads.
+    """
+
+    def __init__(
+        self,
+        cfg: BenchmarkConfig,
+        train: TrainConfig,
+        worlds: list[World],
+        num_envs: int,
+        seed: int | tuple[int, ...],
+        threads: int = 1,
+    ):
+        self.env = RecoveryEnv(cfg, worlds, num_envs, threads=threads)
+        self.train_cfg = train
+        self.num_envs = num_envs
+        self.num_actions = self.env.robot.num_joints
+        self.device = "cpu"
+        self.cfg = {"benchmark": to_dict(cfg), "train": to_dict(train)}
+        self.dt = self.env.control_dt
+        self.max_episode_length = int(round(train.episode.episode_s / self.dt))
+        self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long)
+        self.rng = np.random.default_rng(seed)
+        self.randomizer = ModelRandomizer(worlds[0].model, self.env.robot) if train.randomization.enabled else None
+        robot = self.env.robot
+        self.joint_low = torch.tensor(robot.joint_low, dtype=torch.float32)
+        self.joint_high = torch.tensor(robot.joint_high, dtype=torch.float32)
+        target = train.reward.target_height_m
+        self.target_height_m = cfg.goal.height_fraction * robot.leg_length_m if target is None else target
+        self.term_names = tuple(reward_weights(train.reward))
+        self.episode_sums = {name: torch.zeros(num_envs) for name in self.term_names}
+        self.ever_succeeded = torch.zeros(num_envs, dtype=torch.bool)
+        self.reset_all()
+
+    # ------------------------------------------------------------------ resets
+    def reset_all(self) -> TensorDict:
+        """Start fresh episodes in every slot; returns the observations."""
+        self._reset(np.arange(self.num_envs))
+        self._obs = self._observe()
+        return self._obs
+
+    def _reset(self, ids: np.ndarray) -> None:
+        """Fall protocol + settle in slots ``ids``, with freshly drawn worlds and factors."""
+        k = len(ids)
+        if k == 0:
+            return
+        env = self.env
+        world_idx = self.rng.integers(len(env.worlds), size=k)
+        rngs = self.rng.spawn(k)
+        models = None
+        if self.randomizer is not None:
+            f = sample_factors(k, self.train_cfg.randomization, self.rng)
+            models = self.randomizer.models([env.worlds[w].model for w in world_idx], f)
+        env.reset(ids, world_idx, rngs, models)
+        t = torch.from_numpy(ids)
+        if self.randomizer is not None:
+            env.factors[t] = f.as_tensor()
+            env.friction[t] = torch.from_numpy(f.friction).float()
+        else:
+            env.factors[t] = 1.0
+        self.episode_length_buf[t] = 0
+        self.ever_succeeded[t] = False
+        for s in self.episode_sums.values():
+            s[t] = 0.0
+
+    # ------------------------------------------------------------ observations
+    def _observe(self) -> TensorDict:
+        groups = self.env.observe()
+        return TensorDict(groups, batch_size=[self.num_envs])
+
+    def get_observations(self) -> TensorDict:
+        """Observation groups ``student`` (n, 42) and ``teacher`` (n, 79) of the current states."""
+        return self._obs
+
+    # -------------------------------------------------------------- stepping
+    def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        """One control step of every env with actions (n, J); done envs restart at once.
+
+        Returns observations (after any reset), rewards (n,), dones (n,) and extras.
+        """
+        env = self.env
+        prev_action = env.prev_action.clone()
+        out = env.step(actions.detach().cpu())
+        ctx = RewardContext(
+            action=env.prev_action,  # the clipped action just applied
+            prev_action=prev_action,
+            start_xy=env.start_xy,
+            joint_low=self.joint_low,
+            joint_high=self.joint_high,
+            target_height_m=self.target_height_m,
+        )
+        reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
+
+        self.episode_length_buf += 1
+        self.ever_succeeded |= out.succeeded
+        terminated = out.failed.clone()
+        if self.train_cfg.episode.terminate_on_success:
+            terminated |= out.succeeded
+        time_out = (self.episode_length_buf >= self.max_episode_length) & ~terminated
+        dones = terminated | time_out
+
+        log: dict[str, float | torch.Tensor] = {f"Reward/{n}": v.mean() for n, v in terms.items()}
+        log["Reward/total"] = reward.mean()
+        log["Metrics/in_goal"] = out.in_goal.float().mean()
+        log["Metrics/upright_cos"] = out.state.up_z.float().mean()
+        for name, value in terms.items():
+            self.episode_sums[name] += value
+        done_ids = dones.nonzero(as_tuple=False).flatten()
+        if len(done_ids) > 0:
+            for name in self.term_names:
+                log[f"Episode_Reward/{name}"] = self.episode_sums[name][done_ids].mean()
+            log["Episode/success_rate"] = self.ever_succeeded[done_ids].float().mean()
+            log["Episode/failure_rate"] = out.failed[done_ids].float().mean()
+            log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
+            self._reset(done_ids.numpy())
+        self._obs = self._observe()
+        extras = {"time_outs": time_out, "log": log}
+        return self._obs, reward, dones, extras
+
+    def close(self) -> None:
+        self.env.close()

@@ -1,0 +1,119 @@
+"""Training end to end on the flat context: rsl_rl runners, checkpoints, resume, distillation,
+export, and a tiny PPO budget that must move the learning signal."""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import dataclasses
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+from rsl_rl.runners import OnPolicyRunner
+
+from selfright.config import BenchmarkConfig
+from selfright.policies.learned import load_policy_file
+from selfright.train.commands import ExportArgs, export
+from selfright.train.config import DistillationConfig, PPOConfig, TrainConfig
+from selfright.train.contexts import make_training_worlds
+from selfright.train.runner import RunSpec, TrainingRun, list_checkpoints
+from selfright.train.vecenv import RecoveryVecEnv
+
+CFG = BenchmarkConfig()
+TINY = TrainConfig(ppo=PPOConfig(steps_per_env=8, num_mini_batches=2),
+                   distillation=DistillationConfig(steps_per_env=8, gradient_length=4))
+
+
+def spec(out: Path, **kw) -> RunSpec:
+    base = dict(role="teacher", context="flat", out=out, num_envs=4, iterations=1, seed=0, resume=False,
+                teacher=None, physics_threads=1, torch_threads=1, train=TINY, bench=CFG, quiet=True)
+    return RunSpec(**{**base, **kw})
+
+
+def run(s: RunSpec) -> TrainingRun:
+    r = TrainingRun(s)
+    r.setup()
+    r.run()
+    return r
+
+
+def test_teacher_iteration_resume_distil_export(tmp_path: Path):
+    out = tmp_path / "teacher"
+    r = run(spec(out))
+    assert r.last_loss and all(math.isfinite(v) for v in r.last_loss.values())
+    assert [it for it, _ in list_checkpoints(out)][-1] == 0
+    meta = json.loads((out / "train_meta.json").read_text())
+    assert meta["role"] == "teacher" and meta["context"] == "flat" and meta["env_steps"] == 4 * 8
+    assert meta["policy"]["obs_group"] == "teacher"
+
+    # A second invocation continues from the checkpoint up to the new total.
+    r = run(spec(out, iterations=2, resume=True))
+    assert r.start_it == 1 and list_checkpoints(out)[-1][0] == 1
+    meta = json.loads((out / "train_meta.json").read_text())
+    assert meta["iterations_done"] == 2 and meta["env_steps"] == 2 * 4 * 8 and len(meta["command_lines"]) == 2
+
+    student = tmp_path / "student"
+    r = run(spec(student, role="student", teacher=out))
+    assert all(math.isfinite(v) for v in r.last_loss.values())
+    onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
+    for p in (onnx_path, policy_path):
+        policy = load_policy_file(p)
+        assert policy.group == "student"
+        a = policy.act({"student": torch.zeros(2, 42)}, np.arange(2), [None, None])
+        assert a.shape == (2, 12) and torch.isfinite(a).all()
+
+
+def test_existing_run_needs_resume(tmp_path: Path):
+    out = tmp_path / "r"
+    run(spec(out))
+    for bad in (spec(out), spec(tmp_path / "empty", resume=True), spec(tmp_path / "s", role="student")):
+        try:
+            TrainingRun(bad).setup()
+        except ValueError as e:
+            assert "\n" not in str(e)
+        else:
+            raise AssertionError("expected ValueError")
+
+
+def _evaluate(policy, worlds, train: TrainConfig, steps: int = 100, n: int = 32) -> tuple[float, float]:
+    """Mean reward per step and mean cos θ_z over the last half, on a fixed set of falls."""
+    env = RecoveryVecEnv(CFG, train, worlds, n, seed=12345)
+    rewards, upright = [], []
+    with torch.inference_mode():
+        obs = env.get_observations()
+        for _ in range(steps):
+            obs, r, _, extras = env.step(policy(obs))
+            rewards.append(float(r.mean()))
+            upright.append(float(extras["log"]["Metrics/upright_cos"]))
+    env.close()
+    return float(np.mean(rewards)), float(np.mean(upright[steps // 2 :]))
+
+
+def test_ppo_learning_signal_moves():
+    """40 PPO iterations × 16 envs (~15 s): on the same 32 falls, the trained mean policy earns
+    more reward per step and is more upright than the initial one. (Measured margins over
+    seeds: reward +0.03…+0.05 per step, cos θ_z +0.2…+0.5.)"""
+    torch.manual_seed(1)
+    train = TrainConfig()
+    worlds = make_training_worlds("flat", CFG, seed=0)
+    env = RecoveryVecEnv(CFG, train, worlds, 16, seed=1)
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = OnPolicyRunner(env, train.to_rsl_rl("teacher"), log_dir=None)
+        initial = copy.deepcopy(runner.alg.get_policy()).eval()
+        runner.learn(40, init_at_random_ep_len=True)
+    env.close()
+    r0, up0 = _evaluate(initial, worlds, train)
+    r1, up1 = _evaluate(runner.get_inference_policy(), worlds, train)
+    assert r1 > r0 + 0.01, (r0, r1)
+    assert up1 > up0 + 0.05, (up0, up1)
+
+
+def test_train_args_defaults_are_documented():
+    from selfright.train.commands import TrainArgs
+
+    fields = {f.name: f for f in dataclasses.fields(TrainArgs)}
+    assert {"role", "context", "out", "envs", "iterations", "resume", "seed", "teacher"} <= set(fields)

@@ -1,0 +1,97 @@
+"""Training env adapter and domain randomisation on the real MJCF: a few envs, a few steps."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from selfright.config import BenchmarkConfig
+from selfright.env.randomization import ModelRandomizer, sample_factors
+from selfright.robots import get_robot
+from selfright.sim.scene import TERRAIN_GEOM
+from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
+from selfright.train.contexts import make_training_worlds, training_cells
+from selfright.train.vecenv import RecoveryVecEnv
+
+CFG = BenchmarkConfig()
+
+
+@pytest.fixture(scope="module")
+def flat_worlds():
+    return make_training_worlds("flat", CFG, seed=0)
+
+
+def test_sample_factors_ranges_and_seeding():
+    cfg = RandomizationConfig()
+    a = sample_factors(200, cfg, np.random.default_rng(3))
+    b = sample_factors(200, cfg, np.random.default_rng(3))
+    np.testing.assert_array_equal(a.friction, b.friction)
+    for values, (lo, hi) in [(a.friction, cfg.friction), (a.kp_scale, cfg.kp_scale), (a.kd_scale, cfg.kd_scale),
+                             (a.mass_scale, cfg.mass_scale)]:
+        assert values.min() >= lo and values.max() <= hi and values.std() > 0
+    assert a.as_tensor().shape == (200, 3)
+
+
+def test_randomizer_writes_copies(flat_worlds):
+    base = flat_worlds[0].model
+    r = ModelRandomizer(base, get_robot(CFG.robot.name))
+    m = r.apply(base, friction=0.5, mass=1.1, kp=0.8, kd=1.2)
+    g = base.geom(TERRAIN_GEOM).id
+    assert m.geom_friction[g, 0] == pytest.approx(0.5)
+    assert base.geom_friction[g, 0] == pytest.approx(1.0)  # the world's model is untouched
+    trunk = base.body("trunk").id
+    assert m.body_mass[trunk] == pytest.approx(1.1 * base.body_mass[trunk])
+    assert m.body_mass[0] == base.body_mass[0]  # world body is not the robot
+    np.testing.assert_allclose(m.actuator_gainprm[:12, 0], 0.8 * CFG.robot.kp)
+    np.testing.assert_allclose(m.actuator_biasprm[:12, 1], -0.8 * CFG.robot.kp)
+    np.testing.assert_allclose(m.actuator_biasprm[:12, 2], -1.2 * CFG.robot.kd)
+
+
+def test_training_contexts():
+    rough = training_cells("rough", CFG)
+    extents = [c.roughness_extent_m for c in rough]
+    assert len(rough) == EpisodeConfig().rough_variants and max(extents) == pytest.approx(0.2)
+    assert all(c.slope_pct == 0 for c in rough)
+    (incline,) = training_cells("incline", CFG)
+    assert incline.slope_deg == pytest.approx(20.0)
+    with pytest.raises(ValueError):
+        training_cells("moon", CFG)
+
+
+def test_step_shapes_rewards_and_factors(flat_worlds):
+    env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=3, seed=0)
+    obs = env.get_observations()
+    assert obs["student"].shape == (3, 42) and obs["teacher"].shape == (3, 79)
+    # The teacher sees the randomised factors (its last three inputs) and friction.
+    torch.testing.assert_close(obs["teacher"][:, -3:], env.env.factors)
+    assert not torch.allclose(env.env.factors, torch.ones(3, 3))
+    g = flat_worlds[0].model.geom(TERRAIN_GEOM).id
+    frictions = [env.env.models[i].geom_friction[g, 0] for i in range(3)]
+    np.testing.assert_allclose(frictions, env.env.friction.numpy(), rtol=1e-6)
+    with torch.inference_mode():
+        for _ in range(3):
+            obs, rew, dones, extras = env.step(torch.zeros(3, 12))
+    assert rew.shape == (3,) and torch.isfinite(rew).all()
+    assert dones.shape == (3,) and extras["time_outs"].shape == (3,)
+    log = extras["log"]
+    for name in ("orientation", "torques", "feet_contact", "joint_limits"):
+        assert f"Reward/{name}" in log
+    env.close()
+
+
+def test_time_out_resets_and_is_reported(flat_worlds):
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=0.1))  # 5 control steps
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
+    assert env.max_episode_length == 5
+    with torch.inference_mode():
+        for k in range(5):
+            _, _, dones, extras = env.step(torch.zeros(2, 12))
+            if k < 4:
+                assert not dones.any()
+    assert dones.all() and extras["time_outs"].all()
+    assert "Episode_Reward/orientation" in extras["log"] and "Episode/success_rate" in extras["log"]
+    assert (env.episode_length_buf == 0).all() and (env.env.step_count == 0).all()
+    env.close()
