@@ -59,6 +59,11 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     student = tmp_path / "student"
     r = run(spec(student, role="student", teacher=out))
     assert all(math.isfinite(v) for v in r.last_loss.values())
+    try:  # a student cannot serve as a teacher
+        TrainingRun(spec(tmp_path / "s2", role="student", teacher=student)).setup()
+        raise AssertionError("expected ValueError")
+    except ValueError as e:
+        assert "teacher run" in str(e)
     onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
     for p in (onnx_path, policy_path):
         policy = load_policy_file(p)

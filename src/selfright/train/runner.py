@@ -92,6 +92,8 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyCon
     """The network config of a trained teacher, from its run's ``train_meta.json``, else read off
     the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta."""
     meta = read_meta(ckpt.parent)
+    if meta.get("role", "teacher") != "teacher":
+        raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher)")
     pol = meta.get("policy")
     if pol:
         return (
@@ -313,6 +315,7 @@ class TrainingRun:
         remaining = self.spec.iterations - self.start_it
         if remaining <= 0:
             print(f"{self.out}: already at {self.start_it} ≥ {self.spec.iterations} iterations; nothing to do")
+            self.env.close()
             return latest_checkpoint(self.out)
         old = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
         in_main = _is_main_thread()
