@@ -89,7 +89,9 @@ def _load_torch(p: Path) -> Policy:
         hint = dict(payload.get("infos") or {}) or _run_hint(p)
         actor = _wrap(p, actor_from_checkpoint, payload, hint)
     else:
-        raise ValueError(f"policy file {p} holds no actor; pass a file from `selfright export` or a training checkpoint")
+        raise ValueError(
+            f"policy file {p} holds no actor; pass a file from `selfright export` or a training checkpoint"
+        )
     return TorchPolicy(actor, actor.meta.obs_group, p.stem)
 
 

@@ -165,7 +165,6 @@ class TrainConfig:
         """
         pol = self.policy
         net = _mlp_cfg(pol)
-        gaussian = lambda std: {"class_name": "GaussianDistribution", "init_std": std, "std_type": "scalar"}  # noqa: E731
         common = {"save_interval": 10**9, "logger": "tensorboard", "check_for_nan": True}
         if role == "teacher":
             p = self.ppo
@@ -173,7 +172,7 @@ class TrainConfig:
                 **common,
                 "num_steps_per_env": p.steps_per_env,
                 "obs_groups": {"actor": ["teacher"], "critic": ["teacher"]},
-                "actor": {**net, "distribution_cfg": gaussian(pol.init_std)},
+                "actor": {**net, "distribution_cfg": _gaussian(pol.init_std)},
                 "critic": dict(net),
                 "algorithm": {
                     "class_name": "PPO",
@@ -196,10 +195,10 @@ class TrainConfig:
             **common,
             "num_steps_per_env": d.steps_per_env,
             "obs_groups": {"student": ["student"], "teacher": ["teacher"]},
-            "student": {**net, "distribution_cfg": gaussian(d.student_init_std)},
+            "student": {**net, "distribution_cfg": _gaussian(d.student_init_std)},
             # The teacher acts deterministically; init_std 0 as rsl_rl's maintainers advise
             # (its trained std is loaded with the weights and never used).
-            "teacher": {**_mlp_cfg(teacher_policy or pol), "distribution_cfg": gaussian(0.0)},
+            "teacher": {**_mlp_cfg(teacher_policy or pol), "distribution_cfg": _gaussian(0.0)},
             "algorithm": {
                 "class_name": "Distillation",
                 "num_learning_epochs": d.num_learning_epochs,
@@ -218,3 +217,7 @@ def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:
         "activation": pol.activation,
         "obs_normalization": pol.obs_normalization,
     }
+
+
+def _gaussian(init_std: float) -> dict[str, Any]:
+    return {"class_name": "GaussianDistribution", "init_std": init_std, "std_type": "scalar"}

@@ -189,7 +189,9 @@ class TrainingRun:
         torch.manual_seed(s.seed + start_it)
         worlds = make_training_worlds(s.context, s.bench, s.seed, s.train.episode)
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
-        self.env = RecoveryVecEnv(s.bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads)
+        self.env = RecoveryVecEnv(
+            s.bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads
+        )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
         runner_cls = OnPolicyRunner if s.role == "teacher" else DistillationRunner
         with contextlib.redirect_stdout(io.StringIO()):  # rsl_rl prints the model layouts
