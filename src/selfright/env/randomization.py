@@ -17,7 +17,7 @@ import torch
 
 from selfright.robots import RobotSpec
 from selfright.sim.scene import TERRAIN_GEOM
-from selfright.train.config import RandomizationConfig
+from selfright.config import RandomizationConfig
 
 
 @dataclass(frozen=True)

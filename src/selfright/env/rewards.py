@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import torch
 
 from selfright.env.robot_state import RobotState
-from selfright.train.config import RewardConfig
+from selfright.config import RewardConfig
 
 
 # ----------------------------------------------------------------------------- terms

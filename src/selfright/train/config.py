@@ -10,54 +10,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from selfright.config import RandomizationConfig, RewardConfig
+
+__all__ = [
+    "Context", "Role", "RewardConfig", "RandomizationConfig", "EpisodeConfig", "PolicyConfig",
+    "PPOConfig", "DistillationConfig", "TrainConfig",
+]
+
 Context = Literal["flat", "rough", "incline"]
 """Training contexts (seed §V): flat plane, rough level ground, 20° smooth slope."""
 Role = Literal["teacher", "student"]
 """Teacher: PPO on privileged observations. Student: distilled onto sensor-only observations."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class RewardConfig:
-    """Weights of the seed's reward terms (Table I). r_total = Σ w_i · r_i · dt."""
-
-    orientation: float = 2.5
-    """Weight of cos θ_z, the trunk up axis against world z (per s)."""
-    vertical_velocity: float = 0.1
-    """Weight of exp(−v_z² / vz_sigma_sq), v_z the trunk's vertical speed (per s)."""
-    torques: float = 0.001
-    """Weight of −‖τ‖², τ the motor torques (per N²·m²·s)."""
-    base_height: float = 40.0
-    """Weight of −(z* − z)², z the trunk height above the ground beneath it (per m²·s)."""
-    collisions: float = 1.0
-    """Weight of −n_c, the number of non-foot bodies touching the ground (per s)."""
-    action_rate: float = 0.01
-    """Weight of −‖a_t − a_{t−1}‖², a the (clipped) policy action (per s)."""
-    horizontal_drift: float = 0.01
-    """Weight of −‖xy_start − xy‖², trunk x-y displacement since the policy started (per m²·s)."""
-    joint_limits: float = 10.0
-    """Weight of −Σ_j (excess of q_j beyond its limits), rad (per rad·s)."""
-    feet_contact: float = 8.0
-    """Weight of 1 when all four feet touch the ground, else 0 (per s)."""
-    vz_sigma_sq: float = 0.25
-    """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
-    target_height_m: float | None = None
-    """Goal standing height z* (m); ``None`` = GoalConfig.height_fraction × leg length (0.32 m on A1)."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class RandomizationConfig:
-    """Per-episode uniform domain randomisation, written into per-slot MuJoCo models."""
-
-    enabled: bool = True
-    """Randomise at all; when off every episode runs on its world's nominal model."""
-    friction: tuple[float, float] = (0.4, 1.2)
-    """Ground sliding friction ~ U(low, high) (dimensionless)."""
-    kp_scale: tuple[float, float] = (0.8, 1.2)
-    """PD stiffness multiplier ~ U(low, high) (dimensionless)."""
-    kd_scale: tuple[float, float] = (0.8, 1.2)
-    """PD damping multiplier ~ U(low, high) (dimensionless)."""
-    mass_scale: tuple[float, float] = (0.9, 1.1)
-    """Multiplier of every robot body's mass and inertia ~ U(low, high) (dimensionless)."""
 
 
 @dataclass(frozen=True, kw_only=True)

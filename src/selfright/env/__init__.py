@@ -1,0 +1,1 @@
+"""The recovery environment: fall protocol, goal set, observations, rewards, randomisation."""

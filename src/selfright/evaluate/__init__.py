@@ -1,0 +1,1 @@
+"""Grid evaluation: episode runner, per-cell metrics, result files."""

@@ -1,0 +1,1 @@
+"""Policy interface, baselines, learned policies and the context multiplexer."""

@@ -1,0 +1,1 @@
+"""MuJoCo scene assembly and batched stepping."""
