@@ -3,8 +3,16 @@ scene, states and controls (so the ratio isolates the cost of env logic).
 
 Each round runs the env (observations, random actions, PD targets, goal bookkeeping) for a
 while, recording the PD targets, then replays exactly those controls from the same start
-states with plain ``mujoco.rollout`` calls of 100 physics steps. Rounds alternate so that
-machine noise hits both sides alike; medians are reported.
+states twice with plain ``mujoco.rollout``:
+
+- ``raw``: one call per control step (``control_substeps`` physics steps, solver warm start
+  zeroed, sensors read), the physics any closed-loop 50 Hz controller has to run;
+  ``env_over_raw`` is therefore the cost of the env's own logic.
+- ``open-loop``: calls of 100 physics steps with no sensors, the most MuJoCo can do when
+  nobody needs to look at the state in between; ``env_over_open_loop`` adds the cost of
+  returning to Python every control step.
+
+Rounds alternate so that machine noise hits all sides alike; medians are reported.
 """
 
 from __future__ import annotations
@@ -37,7 +45,7 @@ def measure_throughput(
     env.reset(ids, np.zeros(num_envs, dtype=np.int64), [np.random.default_rng([seed, i]) for i in ids])
     gen = torch.Generator().manual_seed(seed)
     sub = cfg.sim.control_substeps
-    env_rates, raw_rates = [], []
+    env_rates, raw_rates, open_rates = [], [], []
     for _ in range(rounds):
         start = env.state.copy()
         controls: list[np.ndarray] = []
@@ -48,21 +56,12 @@ def measure_throughput(
             controls.append(env.targets(ids, actions))
             env.step(actions)
         env_rates.append(len(controls) * num_envs / (time.perf_counter() - t0))
-        ctrl = np.repeat(np.stack(controls, axis=1), sub, axis=1)  # (n, steps·sub, nu)
-        state = start
-        t1 = time.perf_counter()
-        for k in range(0, ctrl.shape[1], RAW_CHUNK_STEPS):
-            seg = ctrl[:, k : k + RAW_CHUNK_STEPS]
-            states = np.empty((num_envs, seg.shape[1], start.shape[1]))
-            env.stepper._pool.rollout(
-                env.models, env.stepper._datas, state, seg, state=states,
-                initial_warmstart=np.zeros((num_envs, world.model.nv)), chunk_size=env.stepper.chunk_size(num_envs),
-            )
-            state = np.ascontiguousarray(states[:, -1])
-        raw_rates.append(ctrl.shape[1] * num_envs / (time.perf_counter() - t1))
+        raw_rates.append(_replay_per_control_step(env, start, controls))
+        open_rates.append(_replay_open_loop(env, start, np.repeat(np.stack(controls, axis=1), sub, axis=1)))
     env.close()
     env_rate = statistics.median(env_rates)
     raw_rate = statistics.median(raw_rates)
+    open_rate = statistics.median(open_rates)
     return {
         "env_steps_per_s": round(env_rate, 1),
         "physics_steps_per_env_step": sub,
@@ -71,7 +70,29 @@ def measure_throughput(
         "threads": env.stepper.threads,
         "slope_level": slope_level,
         "roughness_level": roughness_level,
-        "raw_physics_steps_per_s": round(raw_rate, 1),
         "env_physics_steps_per_s": round(env_rate * sub, 1),
+        "raw_physics_steps_per_s": round(raw_rate, 1),
+        "open_loop_physics_steps_per_s": round(open_rate, 1),
         "env_over_raw": round(env_rate * sub / raw_rate, 3),
+        "env_over_open_loop": round(env_rate * sub / open_rate, 3),
     }
+
+
+def _replay_per_control_step(env: RecoveryEnv, start: np.ndarray, controls: list[np.ndarray]) -> float:
+    """Physics steps/s of the env's own rollout calls on recorded controls, nothing else."""
+    sub = env.cfg.sim.control_substeps
+    state = start
+    t = time.perf_counter()
+    for ctrl in controls:
+        states, _ = env.stepper.step(env.models, state, ctrl, sub)
+        state = states[:, -1]
+    return len(controls) * sub * env.num_envs / (time.perf_counter() - t)
+
+
+def _replay_open_loop(env: RecoveryEnv, start: np.ndarray, ctrl: np.ndarray) -> float:
+    """Physics steps/s of 100-step rollout calls (no sensors) on the recorded controls."""
+    state = start
+    t = time.perf_counter()
+    for k in range(0, ctrl.shape[1], RAW_CHUNK_STEPS):
+        state = env.stepper.rollout_open_loop(env.models, state, ctrl[:, k : k + RAW_CHUNK_STEPS])
+    return ctrl.shape[1] * env.num_envs / (time.perf_counter() - t)

@@ -149,16 +149,22 @@ class RecoveryEnv:
 
     def targets(self, ids: np.ndarray, actions: torch.Tensor) -> np.ndarray:
         """PD joint targets (k, J): current angle + scale · clipped action, within joint limits."""
-        a = actions.detach().to(torch.float64).clamp(-self.cfg.action.clip, self.cfg.action.clip).numpy()
-        q = self.state[ids][:, self.sl.qpos_joints]
-        return np.clip(q + self.cfg.action.scale_rad * a, self._low, self._high)
+        return self._targets(self.state[ids], self._clip(actions))
+
+    def _clip(self, actions: torch.Tensor) -> torch.Tensor:
+        return actions.detach().float().clamp(-self.cfg.action.clip, self.cfg.action.clip)
+
+    def _targets(self, state: np.ndarray, clipped: torch.Tensor) -> np.ndarray:
+        q = state[:, self.sl.qpos_joints]
+        return np.clip(q + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
 
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
         """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""
         ids = np.arange(self.num_envs) if ids is None else np.asarray(ids, dtype=np.int64)
         t = torch.from_numpy(ids)
-        ctrl = self.targets(ids, actions)
+        clipped = self._clip(actions)
         start = self.state[ids]
+        ctrl = self._targets(start, clipped)
         sub = self.cfg.sim.control_substeps
         states, sens = self.stepper.step([self.models[i] for i in ids], start, ctrl, sub)
         final = states[:, -1]
@@ -177,7 +183,7 @@ class RecoveryEnv:
         div = torch.from_numpy(bad)
         self.diverged[t] |= div
         self.step_count[t] += 1
-        self.prev_action[t] = actions.detach().float().clamp(-self.cfg.action.clip, self.cfg.action.clip)
+        self.prev_action[t] = clipped
 
         rs = self.robot_state(ids)
         self._last = (ids, rs)
