@@ -76,7 +76,7 @@ def build_grid(cells: list[dict[str, Any]]) -> CellGrid:
         rs = [float(c["roughness_R"]) for c in cells
               if int(c["roughness_level"]) == level and c.get("roughness_R") is not None]
         rs = [r for r in rs if math.isfinite(r)]
-        col_labels.append(f"L{level}\nR={np.mean(rs):.3g}" if rs else f"L{level}")
+        col_labels.append(f"L{level}\nR={_fmt_r(float(np.mean(rs)))}" if rs else f"L{level}")
     return CellGrid(row_labels=row_labels, col_labels=col_labels, cells=grid)
 
 
@@ -200,3 +200,8 @@ def make_plots(out_dir: str | Path) -> list[Path]:
                    title=f"Distance to recover, all successful episodes\n{tag}"),
     ]
     return paths
+
+
+def _fmt_r(r: float) -> str:
+    """Roughness label; float round-off of a perfect plane (~1e-13) shows as 0."""
+    return "0" if abs(r) < 1e-9 else f"{r:.3g}"

@@ -91,7 +91,7 @@ class OpenLoopPolicy(_TargetPolicy):
     awareness, no feedback beyond "am I upright yet"):
 
     1. TUCK (0.04 s): fold every leg against the trunk.
-    2. ROLL (0.5 s): the legs on one side extend through the trunk's top side and out,
+    2. ROLL (0.3 s): the legs on one side extend through the trunk's top side and out,
        levering the trunk towards the side that is already lower; the other legs stay
        folded. Then tuck and push from the other side: the alternation rocks the trunk with
        growing amplitude until it rolls over (a static push alone tilts the A1 only ~25°,
@@ -111,7 +111,7 @@ class OpenLoopPolicy(_TargetPolicy):
         control_dt: float,
         *,
         tuck_s: float = 0.04,
-        roll_s: float = 0.5,
+        roll_s: float = 0.3,
         stand_s: float = 1.0,
         upright_deg: float = 60.0,
     ):
