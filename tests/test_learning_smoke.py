@@ -16,11 +16,13 @@ import torch
 from rsl_rl.runners import OnPolicyRunner
 
 from selfright.config import BenchmarkConfig
+from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.learned import load_policy_file
 from selfright.train.commands import ExportArgs, export
 from selfright.train.config import DistillationConfig, PPOConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.train.runner import RunSpec, TrainingRun, list_checkpoints
+from selfright.train.ship import ShipArgs, ship
 from selfright.train.vecenv import RecoveryVecEnv
 
 CFG = BenchmarkConfig()
@@ -70,6 +72,16 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
         assert policy.group == "student"
         a = policy.act({"student": torch.zeros(2, 42)}, np.arange(2), [None, None])
         assert a.shape == (2, 12) and torch.isfinite(a).all()
+
+    # Ship it: evaluate the exported file on the tiny grid, then copy actor + model card.
+    res = evaluate_grid(load_policy_file(policy_path), policy_name=str(policy_path), grid="tiny", episodes=1,
+                        seed=0, out_dir=tmp_path / "eval", cfg=CFG, progress=False)
+    dest = tmp_path / "ckpts"
+    shipped = ship(ShipArgs(run=student, name="flat", evaluation=tmp_path / "eval", dest=dest))
+    assert load_policy_file(shipped).group == "student"
+    card = (dest / "flat.md").read_text()
+    assert "student" in card and "N = 4" in card and "```bash" in card
+    assert f"{100 * res.summary['overall']['success_rate']:.1f} %" in card
 
 
 def test_existing_run_needs_resume(tmp_path: Path):

@@ -1,4 +1,4 @@
-"""``selfright`` command line: evaluate, scene, bench-sim, train, export (tyro subcommands)."""
+"""``selfright`` command line: evaluate, scene, bench-sim, train, export, ship (tyro subcommands)."""
 
 from __future__ import annotations
 
@@ -149,9 +149,11 @@ def _commands() -> dict[str, type]:
     cmds: dict[str, type] = {"evaluate": Evaluate, "scene": Scene, "bench-sim": BenchSim}
     try:
         from selfright.train.commands import ExportArgs, TrainArgs
+        from selfright.train.ship import ShipArgs
 
         cmds["train"] = TrainArgs
         cmds["export"] = ExportArgs
+        cmds["ship"] = ShipArgs
     except ImportError:  # training extras not importable: the benchmark still works
         pass
     return cmds
@@ -170,8 +172,13 @@ def main(argv: list[str] | None = None) -> int:
         else:
             from selfright.train import commands
 
-            if type(args).__name__ == "TrainArgs":
+            name = type(args).__name__
+            if name == "TrainArgs":
                 commands.train(args)
+            elif name == "ShipArgs":
+                from selfright.train.ship import ship
+
+                ship(args)
             else:
                 commands.export(args)
     except (ValueError, FileNotFoundError, RuntimeError) as e:

@@ -85,7 +85,7 @@ def export(args: ExportArgs) -> tuple[Path, Path]:
         raise ValueError(f"checkpoint {args.checkpoint} not found; pass a model_<it>.pt or a run folder")
     ckpt = latest_checkpoint(args.checkpoint)
     try:
-        data = torch.load(ckpt, map_location="cpu", weights_only=False)
+        data = torch.load(ckpt, map_location="cpu", weights_only=True)  # tensors and plain containers only
     except Exception as e:  # noqa: BLE001 - any unpickling failure means the same to the user
         raise ValueError(f"checkpoint {ckpt} cannot be read ({str(e).splitlines()[0][:200]})") from e
     if not isinstance(data, dict):

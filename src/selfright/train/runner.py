@@ -105,7 +105,7 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyCon
             ),
             meta,
         )
-    sd = torch.load(ckpt, map_location="cpu", weights_only=False).get("actor_state_dict")
+    sd = torch.load(ckpt, map_location="cpu", weights_only=True).get("actor_state_dict")
     if sd is None:
         raise ValueError(f"{ckpt} is not a teacher checkpoint (no 'actor_state_dict'); pass a teacher run")
     ws = sorted((int(k.split(".")[1]), v) for k, v in sd.items() if re.fullmatch(r"mlp\.\d+\.weight", k))
@@ -218,7 +218,7 @@ class TrainingRun:
         m = CHECKPOINT_RE.fullmatch(ckpt.name)
         if m:
             return int(m.group(1))
-        return int(torch.load(ckpt, map_location="cpu", weights_only=False).get("iter", 0))
+        return int(torch.load(ckpt, map_location="cpu", weights_only=True).get("iter", 0))
 
     # -------------------------------------------------------------- metadata
     def policy_meta(self) -> dict[str, Any]:

@@ -1,0 +1,101 @@
+"""Ship a trained policy inside the package: a weights-only actor file plus a model card.
+
+``selfright ship --run runs/NAME --name flat-teacher --evaluation results/flat-teacher_flat``
+exports the run's latest actor to ``src/selfright/checkpoints/flat-teacher.pt`` (loadable as
+``--policy flat-teacher``) and writes ``flat-teacher.md`` next to it. Every number on the
+card is read from files: the run's ``train_meta.json`` (steps, wall-clock, device, command)
+and the evaluation's ``summary.json`` (success with its Wilson interval, N, TTR, DTR).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from selfright.policies.registry import CHECKPOINT_DIR
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShipArgs:
+    """Copy a run's actor into the package as a named policy, with its model card."""
+
+    run: Path
+    """Training run folder (its latest checkpoint is shipped)."""
+    name: str
+    """Policy name: flat | rough | incline (students) or flat-teacher | ... (teachers)."""
+    evaluation: Path
+    """Results folder of ``selfright evaluate --policy <exported file> --grid <its context>``."""
+    dest: Path = CHECKPOINT_DIR
+    """Where shipped policies live (the package's checkpoints folder)."""
+
+
+def ship(args: ShipArgs) -> Path:
+    """Export and document; returns the policy file. User errors raise ``ValueError``."""
+    from selfright.policies.actor import actor_from_checkpoint, save_actor_file
+    from selfright.train.runner import latest_checkpoint, read_meta
+
+    import torch
+
+    meta = read_meta(args.run)
+    if not meta:
+        raise ValueError(f"{args.run} has no train_meta.json; pass a folder written by `selfright train`")
+    summary_path = args.evaluation / "summary.json"
+    if not summary_path.exists():
+        raise ValueError(f"{summary_path} not found; evaluate the policy first (`selfright evaluate --out {args.evaluation}`)")
+    summary = json.loads(summary_path.read_text())
+    ckpt = latest_checkpoint(args.run)
+    data = torch.load(ckpt, map_location="cpu", weights_only=True)
+    hint = dict(data.get("infos") or meta.get("policy") or {})
+    hint["source"] = f"{meta.get('role', '?')} run, iteration {meta.get('iterations_done', '?')}"
+    actor = actor_from_checkpoint(data, hint)
+    args.dest.mkdir(parents=True, exist_ok=True)
+    out = args.dest / f"{args.name}.pt"
+    save_actor_file(out, actor)
+    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group))
+    print(f"shipped {out} and its model card {out.with_suffix('.md')}")
+    return out
+
+
+def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str) -> str:
+    """Markdown model card from a run's meta and an evaluation summary."""
+    o = summary["overall"]
+    lo, hi = o["success_ci95"]
+    steps = int(meta.get("env_steps", 0))
+    hours = float(meta.get("wall_clock_s", 0.0)) / 3600
+    cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
+    teacher = meta.get("teacher")
+    ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
+    dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
+    lines = [
+        f"# Model card: `{name}`",
+        "",
+        f"- **Role**: {meta.get('role')} (observation group `{obs_group}`)"
+        + (f", distilled from `{teacher}`" if teacher else ""),
+        f"- **Training context**: {meta.get('context')}",
+        f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)",
+        f"- **Wall-clock**: {hours:.2f} h",
+        f"- **Device**: {meta.get('device')}",
+        f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
+        f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
+        f"mean TTR {ttr}, mean DTR {dtr}",
+        f"- **Evaluation seed**: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell",
+        f"- **Versions**: {json.dumps(meta.get('versions', {}))}",
+        "",
+        "Trained with (each line one invocation; resumed runs list several):",
+        "",
+        "```bash",
+        *[_cli(c) for c in cmds],
+        "```",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _cli(command_line: str) -> str:
+    """A recorded ``sys.argv`` line as the equivalent ``selfright`` command."""
+    parts = command_line.split()
+    if parts and parts[0].endswith(("selfright", "commands.py", "cli.py")):
+        parts[0] = "selfright"
+    return " ".join(parts)
