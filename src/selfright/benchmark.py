@@ -53,8 +53,8 @@ def measure_throughput(
         while time.perf_counter() - t0 < seconds / rounds:
             env.observe(ids, ("student",))
             actions = torch.rand(num_envs, env.robot.num_joints, generator=gen) * 2 - 1
-            controls.append(env.targets(ids, actions))
             env.step(actions)
+            controls.append(env.last_ctrl)
         env_rates.append(len(controls) * num_envs / (time.perf_counter() - t0))
         raw_rates.append(_replay_per_control_step(env, start, controls))
         open_rates.append(_replay_open_loop(env, start, np.repeat(np.stack(controls, axis=1), sub, axis=1)))

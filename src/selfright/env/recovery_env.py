@@ -90,6 +90,9 @@ class RecoveryEnv:
         self.factors = torch.ones(num_envs, 3)
         self.friction = torch.ones(num_envs)
         self.goal = GoalTracker(num_envs, int(round(cfg.goal.hold_s / self.control_dt)))
+        self._all = np.arange(num_envs)
+        self.last_ctrl = np.zeros((0, nj))
+        """PD targets (k, J) applied by the latest ``step`` (the rows of its ``ids``)."""
 
     # ------------------------------------------------------------------ resets
     def reset(
@@ -161,12 +164,17 @@ class RecoveryEnv:
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
         """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""
         ids = np.arange(self.num_envs) if ids is None else np.asarray(ids, dtype=np.int64)
-        t = torch.from_numpy(ids)
+        full = len(ids) == self.num_envs and bool((ids == self._all).all())
+        # Every slot in order (training, benchmarks): slices are views, fancy indexing copies.
+        t = slice(None) if full else torch.from_numpy(ids)
+        rows = slice(None) if full else ids
         clipped = self._clip(actions)
-        start = self.state[ids]
+        start = self.state[rows].copy() if full else self.state[rows]
         ctrl = self._targets(start, clipped)
+        self.last_ctrl = ctrl
         sub = self.cfg.sim.control_substeps
-        states, sens = self.stepper.step([self.models[i] for i in ids], start, ctrl, sub)
+        models = self.models if full else [self.models[i] for i in ids]
+        states, sens = self.stepper.step(models, start, ctrl, sub)
         final = states[:, -1]
         expected_t = start[:, 0] + sub * self.cfg.sim.timestep_s
         bad = ~np.isfinite(states).all(axis=(1, 2)) | (np.abs(final[:, 0] - expected_t) > 1e-6)
@@ -175,9 +183,13 @@ class RecoveryEnv:
         qd = states[:, :, self.sl.qvel_joints]
         power = np.nan_to_num(np.abs(tau * qd).sum(axis=(1, 2)))
         ang = np.nan_to_num(np.linalg.norm(states[:, :, self.sl.ang_vel], axis=2).max(axis=1))
-        final = np.where(bad[:, None], start, final)
-        self.state[ids] = final
-        self.sens[ids] = np.where(bad[:, None], self.sens[ids], sens[:, -1])
+        if bad.any():
+            final = np.where(bad[:, None], start, final)
+            sens_last = np.where(bad[:, None], self.sens[rows], sens[:, -1])
+        else:
+            sens_last = sens[:, -1]
+        self.state[rows] = final
+        self.sens[rows] = sens_last
         self.energy[t] += torch.from_numpy(power * self.cfg.sim.timestep_s)
         self.peak_ang_speed[t] = torch.maximum(self.peak_ang_speed[t], torch.from_numpy(ang).float())
         div = torch.from_numpy(bad)
