@@ -9,8 +9,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from selfright.config import BenchmarkConfig
 from selfright.train.config import Context, Role, TrainConfig
+
+if TYPE_CHECKING:
+    from selfright.policies.actor import ActorMLP
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -74,25 +79,34 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
     return run_training(spec)
 
 
-def export(args: ExportArgs) -> tuple[Path, Path]:
-    """Run ``selfright export``; returns (onnx path, policy file path). User errors raise ``ValueError``."""
+def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[ActorMLP, Path]:
+    """The deployable actor of a training checkpoint (or a run folder's latest one) and that
+    checkpoint's path; ``source`` (default: the path) is recorded in the actor's metadata.
+    Reads tensors and plain containers only. User errors raise ``ValueError``."""
     import torch
 
-    from selfright.policies.actor import actor_from_checkpoint, export_onnx, save_actor_file
+    from selfright.policies.actor import actor_from_checkpoint
     from selfright.train.runner import latest_checkpoint, read_meta
 
-    if not args.checkpoint.exists():
-        raise ValueError(f"checkpoint {args.checkpoint} not found; pass a model_<it>.pt or a run folder")
-    ckpt = latest_checkpoint(args.checkpoint)
+    if not checkpoint.exists():
+        raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt or a run folder")
+    ckpt = latest_checkpoint(checkpoint)
     try:
-        data = torch.load(ckpt, map_location="cpu", weights_only=True)  # tensors and plain containers only
+        data = torch.load(ckpt, map_location="cpu", weights_only=True)
     except Exception as e:  # noqa: BLE001 - any unpickling failure means the same to the user
         raise ValueError(f"checkpoint {ckpt} cannot be read ({str(e).splitlines()[0][:200]})") from e
     if not isinstance(data, dict):
         raise ValueError(f"{ckpt} is not a training checkpoint")
     hint = dict(data.get("infos") or read_meta(ckpt.parent).get("policy") or {})
-    hint["source"] = str(ckpt)
-    actor = actor_from_checkpoint(data, hint)
+    hint["source"] = str(ckpt) if source is None else source
+    return actor_from_checkpoint(data, hint), ckpt
+
+
+def export(args: ExportArgs) -> tuple[Path, Path]:
+    """Run ``selfright export``; returns (onnx path, policy file path). User errors raise ``ValueError``."""
+    from selfright.policies.actor import export_onnx, save_actor_file
+
+    actor, ckpt = load_checkpoint_actor(args.checkpoint)
     onnx_path = args.onnx or ckpt.with_name(f"{ckpt.stem}_policy.onnx")
     policy_path = args.policy or onnx_path.with_suffix(".pt")
     if policy_path.resolve() == ckpt.resolve():

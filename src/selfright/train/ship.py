@@ -33,10 +33,9 @@ class ShipArgs:
 
 def ship(args: ShipArgs) -> Path:
     """Export and document; returns the policy file. User errors raise ``ValueError``."""
-    from selfright.policies.actor import actor_from_checkpoint, save_actor_file
-    from selfright.train.runner import latest_checkpoint, read_meta
-
-    import torch
+    from selfright.policies.actor import save_actor_file
+    from selfright.train.commands import load_checkpoint_actor
+    from selfright.train.runner import read_meta
 
     meta = read_meta(args.run)
     if not meta:
@@ -45,11 +44,8 @@ def ship(args: ShipArgs) -> Path:
     if not summary_path.exists():
         raise ValueError(f"{summary_path} not found; evaluate the policy first (`selfright evaluate --out {args.evaluation}`)")
     summary = json.loads(summary_path.read_text())
-    ckpt = latest_checkpoint(args.run)
-    data = torch.load(ckpt, map_location="cpu", weights_only=True)
-    hint = dict(data.get("infos") or meta.get("policy") or {})
-    hint["source"] = f"{meta.get('role', '?')} run, iteration {meta.get('iterations_done', '?')}"
-    actor = actor_from_checkpoint(data, hint)
+    source = f"{meta.get('role', '?')} run, iteration {meta.get('iterations_done', '?')}"
+    actor, _ = load_checkpoint_actor(args.run, source)
     args.dest.mkdir(parents=True, exist_ok=True)
     out = args.dest / f"{args.name}.pt"
     save_actor_file(out, actor)
