@@ -150,14 +150,11 @@ class RecoveryEnv:
         st = self.state[ids]
         return decode(st, self.sens[ids], self.ground_height(ids, st[:, 1:3]), self.sl, self.so)
 
-    def targets(self, ids: np.ndarray, actions: torch.Tensor) -> np.ndarray:
-        """PD joint targets (k, J): current angle + scale · clipped action, within joint limits."""
-        return self._targets(self.state[ids], self._clip(actions))
-
     def _clip(self, actions: torch.Tensor) -> torch.Tensor:
         return actions.detach().float().clamp(-self.cfg.action.clip, self.cfg.action.clip)
 
     def _targets(self, state: np.ndarray, clipped: torch.Tensor) -> np.ndarray:
+        """PD joint targets (k, J): current angle + scale · clipped action, within joint limits."""
         q = state[:, self.sl.qpos_joints]
         return np.clip(q + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
 

@@ -46,7 +46,7 @@ def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
         return ContextMultiplexer({c: learned.load_policy_file(shipped_path(c)) for c in CONTEXTS})
     if shipped_path(name).exists():
         return learned.load_policy_file(shipped_path(name))
-    if name in CONTEXTS or name.removesuffix("-teacher") in CONTEXTS:
+    if name.removesuffix("-teacher") in CONTEXTS:  # a learned policy by name, not shipped yet
         raise ValueError(
             f"policy {name!r} is not shipped in this install yet; train one (README, Training) or choose one of: "
             f"{', '.join(available_policies())}"
