@@ -96,6 +96,26 @@ def test_existing_run_needs_resume(tmp_path: Path):
             raise AssertionError("expected ValueError")
 
 
+def test_init_from_starts_new_teacher_from_weights(tmp_path: Path):
+    src = tmp_path / "flat"
+    run(spec(src))
+    r = TrainingRun(spec(tmp_path / "rough", context="rough", init_from=src))
+    r.setup()
+    ref = torch.load(src / "model_0.pt", map_location="cpu", weights_only=True)["actor_state_dict"]
+    got = r.runner.alg.get_policy().state_dict()
+    assert r.start_it == 0 and all(torch.equal(got[k], v) for k, v in ref.items())
+    r.run()
+    meta = json.loads((tmp_path / "rough" / "train_meta.json").read_text())
+    assert meta["init_from"].endswith("model_0.pt") and meta["context"] == "rough"
+    for bad in (spec(tmp_path / "x", init_from=tmp_path / "nope"), spec(tmp_path / "y", role="student", teacher=src, init_from=src)):
+        try:
+            TrainingRun(bad).setup()
+        except ValueError as e:
+            assert "init-from" in str(e)
+        else:
+            raise AssertionError("expected ValueError")
+
+
 def _evaluate(policy, worlds, train: TrainConfig, steps: int = 100, n: int = 32) -> tuple[float, float]:
     """Mean reward per step and mean cos θ_z over the last half, on a fixed set of falls."""
     env = RecoveryVecEnv(CFG, train, worlds, n, seed=12345)

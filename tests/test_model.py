@@ -54,6 +54,12 @@ def test_stands_in_standing_pose_without_drifting(world):
     assert 1 - 2 * (x * x + y * y) > np.cos(np.radians(3))  # trunk within 3° of level
     assert d.qpos[2] > 0.32
     assert np.abs(d.qvel).max() < 0.05
+    # Contact sensors: four feet on the ground, no collision (a foot is not a calf collision).
+    from selfright.sim.batch import sensor_layout
+
+    so = sensor_layout(world.model, ROBOT)
+    assert (d.sensordata[so.foot_contact] > 0).all()
+    assert not (d.sensordata[so.body_contact] > 0).any()
 
 
 def test_stands_in_nominal_pose(world):

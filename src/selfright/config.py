@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 BODY_LENGTH_M = 0.5
 """Unitree A1 overall length (m): the benchmark's unit for drop height and roughness bound."""
@@ -84,10 +84,16 @@ class SimConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class ActionConfig:
-    """How policy actions become PD joint targets."""
+    """How policy actions become PD joint targets: target = reference + scale · action,
+    clipped to the joint range."""
 
+    reference: Literal["stand", "current"] = "stand"
+    """``stand``: the robot's standing pose (action 0 = stand, as in legged_gym-style
+    controllers); ``current``: the joint angles at the start of the control step (MuJoCo
+    Playground's Go1 get-up). The seed does not say; ``stand`` learned far faster on our
+    CPU budget (see docs/training.md)."""
     scale_rad: float = 0.5
-    """Joint target = current joint angle + scale · action (rad per unit action)."""
+    """Radians of joint target per unit action."""
     clip: float = 10.0
     """Actions are clipped to ±clip before scaling (dimensionless)."""
 

@@ -74,6 +74,7 @@ class RecoveryEnv:
         self.episode_steps = int(round(cfg.goal.episode_s / self.control_dt))
         self.settle_steps = int(round(cfg.fall.settle_s / cfg.sim.timestep_s))
         self.nominal = torch.tensor(self.robot.nominal_pose, dtype=torch.float32)
+        self._stand = np.asarray(self.robot.stand_pose, dtype=np.float64)
         self._low = self.robot.joint_low
         self._high = self.robot.joint_high
         nj = self.robot.num_joints
@@ -154,9 +155,10 @@ class RecoveryEnv:
         return actions.detach().float().clamp(-self.cfg.action.clip, self.cfg.action.clip)
 
     def _targets(self, state: np.ndarray, clipped: torch.Tensor) -> np.ndarray:
-        """PD joint targets (k, J): current angle + scale · clipped action, within joint limits."""
-        q = state[:, self.sl.qpos_joints]
-        return np.clip(q + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
+        """PD joint targets (k, J): reference + scale · clipped action, within joint limits
+        (reference: the standing pose or the current angles, ``ActionConfig.reference``)."""
+        ref = state[:, self.sl.qpos_joints] if self.cfg.action.reference == "current" else self._stand
+        return np.clip(ref + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
 
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
         """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""

@@ -13,7 +13,8 @@ class Policy(abc.ABC):
     """A batched controller.
 
     ``act`` maps the observation groups of k envs to k actions; joint targets are then
-    ``current joint angle + ActionConfig.scale_rad · action`` (see ``RecoveryEnv.targets``).
+    ``reference + ActionConfig.scale_rad · action``, the reference being the standing pose or
+    the current joint angles (``ActionConfig.reference``; see ``RecoveryEnv._targets``).
     ``ids`` identify the env slots (for policies that keep per-episode memory) and
     ``contexts`` name the training context of each env's cell (``flat``/``rough``/``incline``),
     which only a context multiplexer reads.

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
+from selfright.config import ActionConfig
 from selfright.policies.base import Policy
 from selfright.robots import RobotSpec
 
@@ -26,13 +27,15 @@ class _TargetPolicy(Policy):
 
     groups = ("student",)
 
-    def __init__(self, robot: RobotSpec, action_scale: float):
+    def __init__(self, robot: RobotSpec, action: ActionConfig):
         self.robot = robot
-        self.scale = action_scale
+        self.action = action
+        self._stand = torch.as_tensor(robot.stand_pose, dtype=torch.float32)
 
     def to_action(self, target: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
         """Action whose PD target is ``target`` (k, J) given current angles ``q`` (k, J)."""
-        return (target - q) / self.scale
+        ref = q if self.action.reference == "current" else self._stand
+        return (target - ref) / self.action.scale_rad
 
 
 class ZeroPolicy(_TargetPolicy):
@@ -40,8 +43,8 @@ class ZeroPolicy(_TargetPolicy):
 
     name = "zero"
 
-    def __init__(self, robot: RobotSpec, action_scale: float):
-        super().__init__(robot, action_scale)
+    def __init__(self, robot: RobotSpec, action: ActionConfig):
+        super().__init__(robot, action)
         self._hold: dict[int, torch.Tensor] = {}
 
     def reset(self, ids, seeds=None):
@@ -107,7 +110,7 @@ class OpenLoopPolicy(_TargetPolicy):
     def __init__(
         self,
         robot: RobotSpec,
-        action_scale: float,
+        action: ActionConfig,
         control_dt: float,
         *,
         tuck_s: float = 0.04,
@@ -115,7 +118,7 @@ class OpenLoopPolicy(_TargetPolicy):
         stand_s: float = 1.0,
         upright_deg: float = 60.0,
     ):
-        super().__init__(robot, action_scale)
+        super().__init__(robot, action)
         self.dt = control_dt
         self.tuck_steps = int(round(tuck_s / control_dt))
         self.roll_steps = int(round(roll_s / control_dt))

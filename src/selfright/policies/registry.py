@@ -30,11 +30,11 @@ def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
     (``.pt`` actor file, TorchScript ``.pt``/``.jit``, or ``.onnx``). ``ValueError`` otherwise."""
     robot = get_robot(cfg.robot.name)
     if name == "zero":
-        return ZeroPolicy(robot, cfg.action.scale_rad)
+        return ZeroPolicy(robot, cfg.action)
     if name == "random":
         return RandomPolicy(robot.num_joints)
     if name == "open-loop":
-        return OpenLoopPolicy(robot, cfg.action.scale_rad, cfg.sim.control_dt_s)
+        return OpenLoopPolicy(robot, cfg.action, cfg.sim.control_dt_s)
     from selfright.policies import learned  # torch-model loading only when needed
 
     if name == "sr":

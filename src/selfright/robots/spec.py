@@ -25,8 +25,10 @@ class RobotSpec:
     """Actuated joints, in action order."""
     foot_geoms: tuple[str, ...]
     """Collision geoms of the feet."""
-    contact_bodies: tuple[str, ...]
-    """Non-foot bodies whose ground contacts count as collisions."""
+    collision_geoms: tuple[str, ...]
+    """One geom per non-foot body (its foot-free collision shape); ground contacts of these
+    count as collisions. Geoms, not bodies: a foot sphere sits in its calf body, and a body
+    sensor would count every foot contact as a calf collision."""
     joint_low: np.ndarray
     """Lower joint limits (rad), shape (num_joints,)."""
     joint_high: np.ndarray

@@ -66,7 +66,7 @@ def sensor_layout(model: mujoco.MjModel, robot: RobotSpec) -> SensorLayout:
 
     return SensorLayout(
         foot_contact=span([f"contact_{g}" for g in robot.foot_geoms]),
-        body_contact=span([f"contact_{b}" for b in robot.contact_bodies]),
+        body_contact=span([f"contact_{g}" for g in robot.collision_geoms]),
         gyro=span(["gyro"]),
         actuator_force=span([f"tau_{j}" for j in robot.joint_names]),
     )

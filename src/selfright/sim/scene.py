@@ -27,7 +27,7 @@ class SensorLayout:
 
 def _sensors_xml(robot: RobotSpec) -> str:
     lines = [f'    <contact name="contact_{g}" geom1="{g}" geom2="{TERRAIN_GEOM}" data="found"/>' for g in robot.foot_geoms]
-    lines += [f'    <contact name="contact_{b}" body1="{b}" geom2="{TERRAIN_GEOM}" data="found"/>' for b in robot.contact_bodies]
+    lines += [f'    <contact name="contact_{g}" geom1="{g}" geom2="{TERRAIN_GEOM}" data="found"/>' for g in robot.collision_geoms]
     lines.append('    <gyro name="gyro" site="imu"/>')
     lines += [f'    <actuatorfrc name="tau_{j}" actuator="{j.removesuffix("_joint")}"/>' for j in robot.joint_names]
     return "\n".join(lines)

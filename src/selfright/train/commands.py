@@ -36,6 +36,9 @@ class TrainArgs:
     """Total learning iterations of the run (a resumed run continues up to this number)."""
     resume: bool = False
     """Continue the run in --out from its latest checkpoint."""
+    init_from: Path | None = None
+    """Teacher only: start a new run from another teacher's weights (actor, critic, observation
+    normaliser; fresh optimiser, iteration 0), e.g. rough/incline teachers from the flat one."""
     seed: int = 0
     """Seed of the terrain tiles, the episodes and the network initialisation."""
     physics_threads: int = 1
@@ -71,6 +74,7 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         seed=args.seed,
         resume=args.resume,
         teacher=args.teacher,
+        init_from=args.init_from,
         physics_threads=args.physics_threads,
         torch_threads=args.torch_threads,
         train=args.train,

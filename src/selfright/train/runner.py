@@ -55,6 +55,8 @@ class RunSpec:
     resume: bool
     teacher: Path | None
     physics_threads: int
+    init_from: Path | None = None
+    """Teacher weights to start a new teacher run from (a fine-tuning curriculum)."""
     torch_threads: int
     train: TrainConfig = field(default_factory=TrainConfig)
     bench: BenchmarkConfig = field(default_factory=BenchmarkConfig)
@@ -167,6 +169,13 @@ class TrainingRun:
         has_ckpt = bool(list_checkpoints(self.out))
         if s.resume and not has_ckpt:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
+        if s.init_from is not None:
+            if s.role != "teacher":
+                raise ValueError("--init-from is for teachers; a student starts from --teacher")
+            if s.resume:
+                raise ValueError("--init-from starts a new run; drop --resume (a resumed run keeps its own weights)")
+            if not s.init_from.exists():
+                raise ValueError(f"--init-from {s.init_from} not found; pass a teacher run folder or model_<it>.pt")
         if not s.resume and has_ckpt:
             raise ValueError(f"{self.out} already holds checkpoints; pass --resume to continue or choose another --out")
 
@@ -178,6 +187,7 @@ class TrainingRun:
         self.prev_meta = read_meta(self.out) if s.resume else {}
         self.resume_ckpt = latest_checkpoint(self.out) if s.resume else None
         self.teacher_ckpt = latest_checkpoint(s.teacher) if s.teacher is not None else None
+        self.init_ckpt: Path | None = None
         teacher_policy, teacher_meta = (None, {})
         if s.role == "student":
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
@@ -207,6 +217,11 @@ class TrainingRun:
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
         elif s.role == "student":
             r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
+        elif s.init_from is not None:
+            init = latest_checkpoint(s.init_from)
+            teacher_policy_config(init, s.train.policy)  # refuses student runs
+            r.load(str(init), load_cfg={"actor": True, "critic": True})
+            self.init_ckpt = init
         self.start_it = start_it
         self.steps_per_it = self.cfg["num_steps_per_env"] * s.num_envs
         self.base_steps = int(self.prev_meta.get("env_steps", 0))
@@ -249,6 +264,7 @@ class TrainingRun:
             "command_line": cmd,
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
             "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
+            "init_from": str(self.init_ckpt) if self.init_ckpt else self.prev_meta.get("init_from"),
             "latest_checkpoint": str(checkpoint) if checkpoint else None,
             "policy": self.policy_meta(),
             "teacher_policy": to_dict(self.teacher_policy) if self.teacher_policy else None,
