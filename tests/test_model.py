@@ -80,3 +80,13 @@ def test_falls_believably(world):
     assert d.qpos[2] < 0.2
     assert np.abs(d.qvel).max() < 0.5
     assert np.linalg.norm(traj[-1, :2]) < 0.3
+
+
+def test_stand_height_is_inside_the_goal_set(world):
+    """The reward's target height z* (the stand pose's height) lies above the goal-set bar,
+    and the stand pose settles within 2 cm of it."""
+    cfg = BenchmarkConfig()
+    assert ROBOT.stand_height_m > cfg.goal.height_fraction * ROBOT.leg_length_m + 0.02
+    qpos = np.concatenate([[0, 0, ROBOT.stand_height_m + 0.02, 1, 0, 0, 0], ROBOT.stand_pose])
+    d, _ = _run(world, qpos, ROBOT.stand_pose, 600)
+    assert abs(d.qpos[2] - ROBOT.stand_height_m) < 0.02

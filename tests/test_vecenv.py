@@ -53,7 +53,7 @@ def test_randomizer_writes_copies(flat_worlds):
 def test_training_contexts():
     rough = training_cells("rough", CFG)
     extents = [c.roughness_extent_m for c in rough]
-    assert len(rough) == EpisodeConfig().rough_variants and max(extents) == pytest.approx(0.2)
+    assert len(rough) == EpisodeConfig().rough_variants and max(extents) == pytest.approx(EpisodeConfig().rough_max_extent_m)
     assert all(c.slope_pct == 0 for c in rough)
     (incline,) = training_cells("incline", CFG)
     assert incline.slope_deg == pytest.approx(20.0)

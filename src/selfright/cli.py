@@ -21,7 +21,7 @@ class Evaluate:
     """Evaluate a policy on a grid of terrain contexts; writes episodes.csv, summary.json, plots."""
 
     policy: str = "open-loop"
-    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file."""
+    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file | a training run folder (its latest checkpoint)."""
     grid: Grid = "quick"
     """tiny = 2×2 cells (tests), quick = every other level, paper = full 11×20 grid, or a training context."""
     episodes: int = 20

@@ -26,8 +26,9 @@ def available_policies() -> list[str]:
 
 
 def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
-    """Build the policy called ``name``: a baseline, a shipped policy, ``sr``, or a file path
-    (``.pt`` actor file, TorchScript ``.pt``/``.jit``, or ``.onnx``). ``ValueError`` otherwise."""
+    """Build the policy called ``name``: a baseline, a shipped policy, ``sr``, a file path
+    (``.pt`` actor file or rsl_rl checkpoint, TorchScript ``.pt``/``.jit``, or ``.onnx``), or a
+    training run folder (its latest checkpoint). ``ValueError`` otherwise."""
     robot = get_robot(cfg.robot.name)
     if name == "zero":
         return ZeroPolicy(robot, cfg.action)
@@ -52,6 +53,10 @@ def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
             f"{', '.join(available_policies())}"
         )
     path = Path(name)
+    if path.is_dir():  # a training run folder: its latest checkpoint
+        from selfright.train.checkpoints import latest_checkpoint
+
+        return learned.load_policy_file(latest_checkpoint(path))
     if path.suffix in (".pt", ".jit", ".onnx", ".pth") or path.exists():
         if not path.exists():
             raise ValueError(f"policy file {path} does not exist")

@@ -99,6 +99,9 @@ A1 = RobotSpec(
     nominal_pose=_per_leg((0.0, 0.9, -1.8)),
     stand_pose=_per_leg((0.0, 0.6, -1.2)),
     leg_length_m=0.4,
+    # Hip axis to foot centre in the stand pose, 2 × 0.2 m × cos 0.6, plus the 0.02 m foot
+    # radius: 0.35 m (it settles at 0.336 m under PD sag at Kp 50), 3 cm above the 0.32 m bar.
+    stand_height_m=0.35,
     body_length_m=0.5,
     torque_limit=TORQUE_LIMIT,
     mjcf=a1_mjcf,

@@ -39,6 +39,9 @@ class RobotSpec:
     """Standing joint angles whose trunk height clears the goal-set bar (rad)."""
     leg_length_m: float
     """Fully extended leg length, hip axis to foot centre (m)."""
+    stand_height_m: float
+    """Trunk height of ``stand_pose`` on flat ground (m): the reward's target height z*. Must
+    exceed the goal-set bar (``GoalConfig.height_fraction`` × ``leg_length_m``)."""
     body_length_m: float
     """Overall body length (m)."""
     torque_limit: float

@@ -90,7 +90,7 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
     import torch
 
     from selfright.policies.actor import actor_from_checkpoint
-    from selfright.train.runner import latest_checkpoint, read_meta
+    from selfright.train.checkpoints import latest_checkpoint, read_meta
 
     if not checkpoint.exists():
         raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt or a run folder")

@@ -31,12 +31,11 @@ from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
+from selfright.train.checkpoints import CHECKPOINT_RE, META_FILE, latest_checkpoint, list_checkpoints, read_meta
 from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.train.vecenv import RecoveryVecEnv
 
-META_FILE = "train_meta.json"
-CHECKPOINT_RE = re.compile(r"model_(\d+)\.pt")
 PROGRESS_EVERY_S = 10.0
 """Seconds between one-line progress reports (the first iterations always report)."""
 
@@ -65,31 +64,6 @@ class RunSpec:
 
 
 # ------------------------------------------------------------------ checkpoints
-def list_checkpoints(run_dir: Path) -> list[tuple[int, Path]]:
-    """(iteration, path) of the ``model_<it>.pt`` files in ``run_dir``, ascending."""
-    if not run_dir.is_dir():
-        return []
-    found = [(int(m.group(1)), p) for p in run_dir.iterdir() if (m := CHECKPOINT_RE.fullmatch(p.name))]
-    return sorted(found)
-
-
-def latest_checkpoint(path: Path) -> Path:
-    """``path`` if it is a checkpoint file, else the newest ``model_<it>.pt`` in the folder."""
-    if path.is_file():
-        return path
-    ckpts = list_checkpoints(path)
-    if not ckpts:
-        raise ValueError(f"no checkpoint (model_<it>.pt) in {path}; train there first or pass a checkpoint file")
-    return ckpts[-1][1]
-
-
-def read_meta(run_dir: Path) -> dict[str, Any]:
-    try:
-        return json.loads((run_dir / META_FILE).read_text())
-    except (OSError, ValueError):
-        return {}
-
-
 def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyConfig, dict[str, Any]]:
     """The network config of a trained teacher, from its run's ``train_meta.json``, else read off
     the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta."""
@@ -129,7 +103,7 @@ class _HookLogger(Logger):
         self.hook = hook
 
     def log(self, it: int, *args: Any, **kwargs: Any) -> None:
-        extras = {k: _mean_extra(self.ep_extras, k) for k in ("Episode/success_rate", "Reward/total")}
+        extras = {k: _mean_extra(self.ep_extras, k) for k in ("Episode/success_rate", "Metrics/in_goal")}
         loss = kwargs.get("loss_dict", {})  # rsl_rl's runner passes every argument by keyword
         with contextlib.redirect_stdout(io.StringIO()):
             super().log(it, *args, **kwargs)
@@ -308,13 +282,14 @@ class TrainingRun:
         eta = elapsed / done * (total - it - 1)
         lb = self.runner.logger
         ep_ret = f"{sum(lb.rewbuffer) / len(lb.rewbuffer):7.2f}" if lb.rewbuffer else "    n/a"
-        succ = extras.get("Episode/success_rate")
+        succ, goal = extras.get("Episode/success_rate"), extras.get("Metrics/in_goal")
         losses = " ".join(f"{k} {v:.4f}" for k, v in loss.items())
         print(
             f"[{self.spec.role}/{self.spec.context}] it {it + 1}/{total}  "
             f"steps {self.base_steps + done * self.steps_per_it:,}  {rate:,.0f} steps/s  "
             f"{60 * done / max(elapsed, 1e-9):.1f} it/min  ep_return {ep_ret}  "
-            f"success {'n/a' if succ is None else f'{succ:.2f}'}  {losses}  "
+            f"success {'n/a' if succ is None else f'{succ:.2f}'}  in_goal {'n/a' if goal is None else f'{goal:.2f}'}  "
+            f"{losses}  "
             f"elapsed {_hms(elapsed)}  eta {_hms(eta)}",
             flush=True,
         )

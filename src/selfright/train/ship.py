@@ -35,7 +35,7 @@ def ship(args: ShipArgs) -> Path:
     """Export and document; returns the policy file. User errors raise ``ValueError``."""
     from selfright.policies.actor import save_actor_file
     from selfright.train.commands import load_checkpoint_actor
-    from selfright.train.runner import read_meta
+    from selfright.train.checkpoints import read_meta
 
     meta = read_meta(args.run)
     if not meta:
