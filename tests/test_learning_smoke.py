@@ -84,6 +84,19 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     assert "student" in card and "N = 4" in card and "```bash" in card
     assert f"{100 * res.summary['overall']['success_rate']:.1f} %" in card
 
+    # An earlier checkpoint of a run ships with its own steps, not the run's latest.
+    ship(ShipArgs(run=out / "model_0.pt", name="flat-teacher", evaluation=tmp_path / "eval", dest=dest))
+    card = (dest / "flat-teacher.md").read_text()
+    assert "32 (1 iterations" in card and "teacher" in card
+    data = torch.load(out / "model_0.pt", weights_only=True)
+    del data["infos"]["env_steps"]
+    torch.save(data, out / "model_0.pt")
+    try:
+        ship(ShipArgs(run=out / "model_0.pt", name="x", evaluation=tmp_path / "eval", dest=dest))
+        raise AssertionError("expected ValueError")
+    except ValueError as e:
+        assert "run folder" in str(e)
+
 
 def test_existing_run_needs_resume(tmp_path: Path):
     out = tmp_path / "r"

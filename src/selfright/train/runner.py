@@ -5,7 +5,7 @@ the latest checkpoint, a one-line progress report, clean stop on SIGINT/SIGTERM,
 
 Run directory layout (``--out``)::
 
-    model_<it>.pt      rsl_rl checkpoints (``infos`` holds the policy metadata)
+    model_<it>.pt      rsl_rl checkpoints (``infos``: policy metadata, iterations, env steps, wall-clock)
     events.out.tfevents.*   tensorboard logs (rewards per term, losses, FPS)
     train_meta.json    context, role, env steps, wall-clock, device, command lines
 """
@@ -251,9 +251,11 @@ class TrainingRun:
         """Checkpoint after iteration ``it`` (0-based), write the meta file, prune old checkpoints."""
         path = self.out / f"model_{it}.pt"
         self.runner.current_learning_iteration = it
-        self.runner.save(str(path), infos={**self.policy_meta(), "source": str(path)})
+        meta = self.meta(it + 1, path)
+        progress = {k: meta[k] for k in ("iterations_done", "env_steps", "wall_clock_s")}
+        self.runner.save(str(path), infos={**self.policy_meta(), "source": str(path), **progress})
         tmp = self.out / (META_FILE + ".tmp")
-        tmp.write_text(json.dumps(self.meta(it + 1, path), indent=2))
+        tmp.write_text(json.dumps(meta, indent=2))
         os.replace(tmp, self.out / META_FILE)
         keep = self.spec.train.keep_checkpoints
         if keep > 0:

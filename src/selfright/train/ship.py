@@ -22,7 +22,7 @@ class ShipArgs:
     """Copy a run's actor into the package as a named policy, with its model card."""
 
     run: Path
-    """Training run folder (its latest checkpoint is shipped)."""
+    """Training run folder (its latest checkpoint is shipped) or one of its ``model_<it>.pt``."""
     name: str
     """Policy name: flat | rough | incline (students) or flat-teacher | ... (teachers)."""
     evaluation: Path
@@ -35,11 +35,8 @@ def ship(args: ShipArgs) -> Path:
     """Export and document; returns the policy file. User errors raise ``ValueError``."""
     from selfright.policies.actor import save_actor_file
     from selfright.train.commands import load_checkpoint_actor
-    from selfright.train.checkpoints import read_meta
 
-    meta = read_meta(args.run)
-    if not meta:
-        raise ValueError(f"{args.run} has no train_meta.json; pass a folder written by `selfright train`")
+    meta = checkpoint_meta(args.run)
     summary_path = args.evaluation / "summary.json"
     if not summary_path.exists():
         raise ValueError(f"{summary_path} not found; evaluate the policy first (`selfright evaluate --out {args.evaluation}`)")
@@ -52,6 +49,29 @@ def ship(args: ShipArgs) -> Path:
     (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group))
     print(f"shipped {out} and its model card {out.with_suffix('.md')}")
     return out
+
+
+def checkpoint_meta(run: Path) -> dict[str, Any]:
+    """The run's ``train_meta.json``, with iterations, env steps and wall-clock of the shipped
+    checkpoint: the latest one for a run folder, else the file ``run`` names. ``ValueError`` if
+    those numbers are not known for that checkpoint."""
+    import torch
+
+    from selfright.train.checkpoints import latest_checkpoint, read_meta
+
+    folder = run.parent if run.is_file() else run
+    meta = read_meta(folder)
+    if not meta:
+        raise ValueError(f"{folder} has no train_meta.json; pass a folder written by `selfright train`")
+    ckpt = latest_checkpoint(run)
+    if meta.get("latest_checkpoint") and Path(meta["latest_checkpoint"]).name == ckpt.name:
+        return meta
+    infos = torch.load(ckpt, map_location="cpu", weights_only=True).get("infos") or {}
+    progress = ("iterations_done", "env_steps", "wall_clock_s")
+    if not all(k in infos for k in progress):
+        raise ValueError(f"{ckpt} does not record its env steps and wall-clock (an older checkpoint); "
+                         f"ship the run folder (its latest checkpoint) instead")
+    return {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
 
 
 def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str) -> str:
@@ -69,14 +89,17 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
         "",
         f"- **Role**: {meta.get('role')} (observation group `{obs_group}`)"
         + (f", distilled from `{teacher}`" if teacher else ""),
-        f"- **Training context**: {meta.get('context')}",
+        f"- **Training context**: {meta.get('context')}"
+        + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
         f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
         f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
         f"mean TTR {ttr}, mean DTR {dtr}",
-        f"- **Evaluation seed**: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell",
+        f"- **Evaluation seed**: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell; "
+        f"reproduce with `selfright evaluate --policy {name} --grid {summary.get('grid')} "
+        f"--episodes {summary.get('episodes_per_cell')} --seed {summary.get('seed', 0)}`",
         f"- **Versions**: {json.dumps(meta.get('versions', {}))}",
         "",
         "Trained with (each line one invocation; resumed runs list several):",
