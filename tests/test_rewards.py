@@ -118,3 +118,12 @@ def test_weights_come_from_config():
     cfg = RewardConfig(orientation=0.0, feet_contact=1.0)
     w = R.reward_weights(cfg)
     assert w["orientation"] == 0.0 and w["feet_contact"] == 1.0 and w["base_height"] == 40.0
+
+
+def test_standing_height_on_slopes():
+    from selfright.env.rewards import standing_height
+
+    z = standing_height(0.35, torch.tensor([0.0, 100.0 * math.tan(math.radians(20.0)), 100.0]))
+    assert z[0].item() == pytest.approx(0.35)
+    assert z[1].item() == pytest.approx(0.35 / math.cos(math.radians(20.0)), rel=1e-5)
+    assert z[2].item() == pytest.approx(0.35 * math.sqrt(2.0), rel=1e-5)

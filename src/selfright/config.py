@@ -167,8 +167,10 @@ class RewardConfig:
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None
-    """Standing height z* of the base-height term (m); ``None`` = the robot's standing height
-    (``RobotSpec.stand_height_m``, 0.35 m on the A1). The seed leaves z* unspecified; we target
+    """Standing height z* of the base-height term on level ground (m); ``None`` = the robot's
+    standing height (``RobotSpec.stand_height_m``, 0.35 m on the A1). On a slope of angle α the
+    target is this / cos α, the vertical height of a robot standing square to the slope (z is
+    measured vertically above the ground beneath). The seed leaves z* unspecified; we target
     the height the robot has when standing in the goal set, not the goal's lower bar
     (0.8 × leg length = 0.32 m): with z* on the bar, nothing in Table I rewards standing above
     it, and policies trained that way stood at 0.30–0.32 m, half outside the goal set."""

@@ -33,9 +33,10 @@ def torque_l2(rs: RobotState) -> torch.Tensor:
     return -rs.torque.float().square().sum(dim=-1)
 
 
-def base_height_l2(rs: RobotState, target_m: float) -> torch.Tensor:
-    """(n,) −(z* − z)², z the trunk height above the ground beneath it (m²)."""
-    return -(target_m - rs.height.float()).square()
+def base_height_l2(rs: RobotState, target_m: float | torch.Tensor) -> torch.Tensor:
+    """(n,) −(z* − z)², z the trunk height above the ground beneath it and z* a scalar or
+    (n,) target (m²)."""
+    return -(torch.as_tensor(target_m, dtype=torch.float32) - rs.height.float()).square()
 
 
 def body_collisions(rs: RobotState) -> torch.Tensor:
@@ -72,6 +73,14 @@ def all_feet_contact(rs: RobotState) -> torch.Tensor:
     return rs.feet_contact.all(dim=-1).float()
 
 
+def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
+    """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
+    above the ground beneath as z is, of a robot standing square to the slope with its trunk
+    ``stand_height_m`` from the ground: stand_height / cos(slope angle). 0.35 m on the
+    plane, 0.372 m on the 20° incline."""
+    return stand_height_m / torch.cos(torch.atan(slope_pct.float() / 100.0))
+
+
 # ----------------------------------------------------------------------------- sum
 @dataclass(frozen=True)
 class RewardContext:
@@ -87,8 +96,8 @@ class RewardContext:
     """(J,) lower joint limits (rad)."""
     joint_high: torch.Tensor
     """(J,) upper joint limits (rad)."""
-    target_height_m: float
-    """Goal standing height z* (m)."""
+    target_height_m: float | torch.Tensor
+    """Standing height z* (m), a scalar or (n,) per env (see ``standing_height``)."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:

@@ -30,7 +30,7 @@ from tensordict import TensorDict
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.randomization import ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv
-from selfright.env.rewards import RewardContext, reward_weights, weighted_rewards
+from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
 from selfright.env.world import World
 from selfright.train.config import TrainConfig
 
@@ -72,7 +72,9 @@ class RecoveryVecEnv(VecEnv):
         self.joint_low = torch.tensor(robot.joint_low, dtype=torch.float32)
         self.joint_high = torch.tensor(robot.joint_high, dtype=torch.float32)
         target = train.reward.target_height_m
-        self.target_height_m = robot.stand_height_m if target is None else target
+        slope = torch.tensor([w.cell.slope_pct for w in worlds], dtype=torch.float32)
+        self.world_target_m = standing_height(robot.stand_height_m if target is None else target, slope)
+        """(W,) z* of each world."""
         self.term_names = tuple(reward_weights(train.reward))
         self.episode_sums = {name: torch.zeros(num_envs) for name in self.term_names}
         self.ever_succeeded = torch.zeros(num_envs, dtype=torch.bool)
@@ -133,7 +135,7 @@ class RecoveryVecEnv(VecEnv):
             start_xy=env.start_xy,
             joint_low=self.joint_low,
             joint_high=self.joint_high,
-            target_height_m=self.target_height_m,
+            target_height_m=self.world_target_m[torch.from_numpy(env.world_idx)],
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
