@@ -1,61 +1,73 @@
 #!/usr/bin/env bash
-# The whole pipeline behind the shipped policies, one stage per call, each resumable:
+# The recipe behind the shipped policies, one stage per call (docs/training.md tells why):
 #
-#   bash scripts/train_policies.sh flat-teacher      # PPO teacher on the flat plane
-#   bash scripts/train_policies.sh context-teachers  # rough and incline teachers, fine-tuned from flat
+#   bash scripts/train_policies.sh flat-teacher      # PPO teacher on the flat plane (~10.6 M steps)
+#   bash scripts/train_policies.sh context-teachers  # rough and incline teachers, fine-tuned from it
 #   bash scripts/train_policies.sh students          # distil the three sensor-only students
-#   bash scripts/train_policies.sh ship              # evaluate (64 episodes) and ship all six
+#   bash scripts/train_policies.sh ship              # evaluate (64 episodes, seed 0) and ship all six
 #
-# Re-running a stage resumes its runs from their latest checkpoints (a run that has reached
-# its iteration target does nothing). Iteration targets are what the shipped policies were
-# trained for (see their model cards); override with FLAT_IT, CONTEXT_IT, STUDENT_IT.
-# Runs sharing the machine split its cores: PHYSICS_THREADS (default 2) goes to a lone run,
-# one thread each when two run side by side.
+# Each stage resumes its runs from their latest checkpoints; a run at its iteration target
+# does nothing. The iteration targets are those of the shipped checkpoints (a run with
+# --iterations N ends with model_<N-1>.pt, the checkpoint the next stage reads). Physics is
+# multi-threaded and episodes are redrawn on resume, so a rerun reproduces the recipe, not
+# the bits. Runs started side by side take one physics thread each.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:?usage: train_policies.sh flat-teacher|context-teachers|students|ship}
-FLAT_IT=${FLAT_IT:-2600}
-CONTEXT_IT=${CONTEXT_IT:-1200}
-STUDENT_IT=${STUDENT_IT:-400}
 ENVS=${ENVS:-128}
-EPISODES=${EPISODES:-64}
 
-# train OUT ROLE CONTEXT ITERATIONS THREADS [EXTRA...]: start or resume one run.
-train() {
-  local out=$1 role=$2 context=$3 iterations=$4 threads=$5
-  shift 5
-  local extra=("$@")
-  if ls "$out"/model_*.pt > /dev/null 2>&1; then
-    extra=(--resume)  # --init-from/--teacher were recorded when the run started
-    [ "$role" = student ] && extra+=(--teacher "runs/${context}_teacher")
-  fi
+has_ckpt() { ls "$1"/model_*.pt > /dev/null 2>&1; }
+
+# run OUT ARGS...: one `selfright train` invocation, appending to OUT.log.
+run() {
+  local out=$1
+  shift
   mkdir -p "$out"
-  selfright train --role "$role" --context "$context" --out "$out" --envs "$ENVS" \
-    --iterations "$iterations" --physics-threads "$threads" "${extra[@]}" >> "$out.log" 2>&1
+  selfright train --out "$out" --envs "$ENVS" "$@" >> "$out.log" 2>&1
+}
+
+# resume_or_start OUT START_ARGS -- COMMON_ARGS: --resume if OUT has a checkpoint, else START_ARGS.
+resume_or_start() {
+  local out=$1
+  shift
+  local start=()
+  while [ "$1" != -- ]; do start+=("$1"); shift; done
+  shift
+  if has_ckpt "$out"; then run "$out" --resume "$@"; else run "$out" "${start[@]}" "$@"; fi
 }
 
 case $stage in
   flat-teacher)
-    train runs/flat_teacher teacher flat "$FLAT_IT" "${PHYSICS_THREADS:-2}"
+    f=(--role teacher --context flat --physics-threads 2)
+    # Iterations 0-1078 ran with z* = 0.32 m (the goal bar), the rest with the default 0.35 m.
+    has_ckpt runs/flat_teacher || run runs/flat_teacher "${f[@]}" --iterations 1079 --train.reward.target-height-m 0.32
+    run runs/flat_teacher "${f[@]}" --iterations 3446 --resume
     ;;
   context-teachers)
-    train runs/rough_teacher teacher rough "$CONTEXT_IT" 1 --init-from runs/flat_teacher &
-    train runs/incline_teacher teacher incline "$CONTEXT_IT" 1 --init-from runs/flat_teacher &
+    ft=runs/flat_teacher/model_3445.pt
+    resume_or_start runs/rough_teacher --init-from "$ft" -- --role teacher --context rough --physics-threads 1 \
+      --iterations 85 --train.ppo.desired-kl 0.005 &
+    resume_or_start runs/incline_teacher --init-from "$ft" -- --role teacher --context incline --physics-threads 1 \
+      --iterations 168 --train.randomization.friction 0.6 1.2 &
     wait
     ;;
   students)
     for c in flat rough incline; do
-      train "runs/${c}_student" student "$c" "$STUDENT_IT" 1 --teacher "runs/${c}_teacher" &
+      run "runs/${c}_student" --role student --context "$c" --teacher "runs/${c}_teacher" --physics-threads 1 \
+        --iterations 600 $(has_ckpt "runs/${c}_student" && echo --resume) &
     done
     wait
     ;;
   ship)
     for c in flat rough incline; do
       for role in teacher student; do
-        name=$c; [ "$role" = teacher ] && name=$c-teacher
-        selfright evaluate --policy "runs/${c}_${role}" --grid "$c" --episodes "$EPISODES" \
+        name=$c
+        [ "$role" = teacher ] && name=$c-teacher
+        selfright evaluate --policy "runs/${c}_${role}" --grid "$c" --episodes 64 --seed 0 \
           --out "results/${name}_${c}" --no-progress
-        selfright ship --run "runs/${c}_${role}" --name "$name" --evaluation "results/${name}_${c}"
+        notes=()
+        [ -f "docs/notes/$name.md" ] && notes=(--notes "docs/notes/$name.md")
+        selfright ship --run "runs/${c}_${role}" --name "$name" --evaluation "results/${name}_${c}" "${notes[@]}"
       done
     done
     ;;

@@ -82,12 +82,16 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     assert load_policy_file(shipped).group == "student"
     card = (dest / "flat.md").read_text()
     assert "student" in card and "N = 4" in card and "```bash" in card
+    assert "its teacher: 64 env steps" in card  # the teacher's 2 iterations × 4 envs × 8 steps
     assert f"{100 * res.summary['overall']['success_rate']:.1f} %" in card
 
     # An earlier checkpoint of a run ships with its own steps, not the run's latest.
-    ship(ShipArgs(run=out / "model_0.pt", name="flat-teacher", evaluation=tmp_path / "eval", dest=dest))
+    notes = tmp_path / "notes.md"
+    notes.write_text("Chosen on validation seeds 1-3.\n")
+    ship(ShipArgs(run=out / "model_0.pt", name="flat-teacher", evaluation=tmp_path / "eval", dest=dest, notes=notes))
     card = (dest / "flat-teacher.md").read_text()
     assert "32 (1 iterations" in card and "teacher" in card
+    assert card.rstrip().endswith("## Notes\n\nChosen on validation seeds 1-3.")
     data = torch.load(out / "model_0.pt", weights_only=True)
     del data["infos"]["env_steps"]
     torch.save(data, out / "model_0.pt")

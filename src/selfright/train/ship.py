@@ -29,6 +29,8 @@ class ShipArgs:
     """Results folder of ``selfright evaluate --policy <exported file> --grid <its context>``."""
     dest: Path = CHECKPOINT_DIR
     """Where shipped policies live (the package's checkpoints folder)."""
+    notes: Path | None = None
+    """Markdown appended to the model card under "Notes" (lineage, selection, caveats)."""
 
 
 def ship(args: ShipArgs) -> Path:
@@ -46,7 +48,10 @@ def ship(args: ShipArgs) -> Path:
     args.dest.mkdir(parents=True, exist_ok=True)
     out = args.dest / f"{args.name}.pt"
     save_actor_file(out, actor)
-    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group))
+    if args.notes is not None and not args.notes.is_file():
+        raise ValueError(f"--notes {args.notes} not found; pass a markdown file or drop --notes")
+    notes = args.notes.read_text().strip() if args.notes is not None else ""
+    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group, notes))
     print(f"shipped {out} and its model card {out.with_suffix('.md')}")
     return out
 
@@ -74,8 +79,19 @@ def checkpoint_meta(run: Path) -> dict[str, Any]:
     return {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
 
 
-def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str) -> str:
-    """Markdown model card from a run's meta and an evaluation summary."""
+def _teacher_budget(teacher: str | None) -> str:
+    """", teacher: N env steps, H h" read from the teacher run's meta (empty if unknown)."""
+    if not teacher:
+        return ""
+    try:
+        t = checkpoint_meta(Path(teacher))
+    except (ValueError, OSError):
+        return ""
+    return f"; its teacher: {int(t.get('env_steps', 0)):,} env steps, {float(t.get('wall_clock_s', 0.0)) / 3600:.2f} h"
+
+
+def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str, notes: str = "") -> str:
+    """Markdown model card from a run's meta, an evaluation summary and optional notes."""
     o = summary["overall"]
     lo, hi = o["success_ci95"]
     steps = int(meta.get("env_steps", 0))
@@ -91,7 +107,8 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
         + (f", distilled from `{teacher}`" if teacher else ""),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),
-        f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)",
+        f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
+        + _teacher_budget(teacher),
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
         f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
@@ -109,6 +126,8 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
         "```",
         "",
     ]
+    if notes:
+        lines += ["## Notes", "", notes, ""]
     return "\n".join(lines)
 
 

@@ -1,0 +1,56 @@
+"""The policies shipped inside the package: they load weights-only, act, export to ONNX with
+the same outputs, carry a model card, and ``sr`` multiplexes the three students."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from selfright.config import BenchmarkConfig
+from selfright.policies.actor import export_onnx, load_actor_file
+from selfright.policies.learned import load_policy_file
+from selfright.policies.registry import CHECKPOINT_DIR, CONTEXTS, make_policy
+
+SHIPPED = sorted(p.stem for p in CHECKPOINT_DIR.glob("*.pt"))
+DIMS = {"student": 42, "teacher": 79}
+
+
+def test_the_three_students_and_teachers_ship():
+    assert set(SHIPPED) >= {*CONTEXTS, *(f"{c}-teacher" for c in CONTEXTS)}
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_policy_loads_acts_and_has_a_card(name: str):
+    policy = make_policy(name, BenchmarkConfig())
+    expected_group = "teacher" if name.endswith("-teacher") else "student"
+    assert policy.group == expected_group
+    obs = {g: torch.randn(5, d) for g, d in DIMS.items()}
+    a = policy.act(obs, np.arange(5), [None] * 5)
+    assert a.shape == (5, 12) and torch.isfinite(a).all()
+    card = (CHECKPOINT_DIR / f"{name}.md").read_text()
+    for field in ("Training context", "Environment steps", "Wall-clock", "Device", "Success in its context", "```bash"):
+        assert field in card, field
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_policy_onnx_matches_torch(name: str, tmp_path: Path):
+    actor = load_actor_file(CHECKPOINT_DIR / f"{name}.pt")
+    export_onnx(actor, tmp_path / f"{name}.onnx")
+    onnx_policy = load_policy_file(tmp_path / f"{name}.onnx")
+    x = torch.randn(64, actor.meta.obs_dim, generator=torch.Generator().manual_seed(0))
+    group = actor.meta.obs_group
+    out = onnx_policy.act({group: x}, np.arange(64), [None] * 64)
+    with torch.no_grad():
+        torch.testing.assert_close(out, actor(x), atol=1e-5, rtol=0)
+
+
+def test_sr_routes_each_context_to_its_policy():
+    sr = make_policy("sr", BenchmarkConfig())
+    obs = {"student": torch.randn(3, 42, generator=torch.Generator().manual_seed(1))}
+    out = sr.act(obs, np.arange(3), ["flat", "rough", "incline"])
+    for k, ctx in enumerate(["flat", "rough", "incline"]):
+        single = make_policy(ctx, BenchmarkConfig()).act({"student": obs["student"][k : k + 1]}, np.arange(1), [ctx])
+        torch.testing.assert_close(out[k : k + 1], single)
