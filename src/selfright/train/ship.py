@@ -79,15 +79,16 @@ def checkpoint_meta(run: Path) -> dict[str, Any]:
     return {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
 
 
-def _teacher_budget(teacher: str | None) -> str:
-    """", teacher: N env steps, H h" read from the teacher run's meta (empty if unknown)."""
-    if not teacher:
+def _budget(label: str, checkpoint: str | None) -> str:
+    """"; LABEL: N env steps, H h" of another run's checkpoint (a teacher, an initialisation),
+    read from its record; empty if unknown."""
+    if not checkpoint:
         return ""
     try:
-        t = checkpoint_meta(Path(teacher))
+        t = checkpoint_meta(Path(checkpoint))
     except (ValueError, OSError):
         return ""
-    return f"; its teacher: {int(t.get('env_steps', 0)):,} env steps, {float(t.get('wall_clock_s', 0.0)) / 3600:.2f} h"
+    return f"; {label}: {int(t.get('env_steps', 0)):,} env steps, {float(t.get('wall_clock_s', 0.0)) / 3600:.2f} h"
 
 
 def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str, notes: str = "") -> str:
@@ -108,7 +109,8 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
-        + _teacher_budget(teacher),
+        + _budget("its teacher", teacher)
+        + _budget("before that, its initialisation", meta.get("init_from")),
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
         f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
