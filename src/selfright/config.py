@@ -90,8 +90,8 @@ class ActionConfig:
     reference: Literal["stand", "current"] = "stand"
     """``stand``: the robot's standing pose (action 0 = stand, as in legged_gym-style
     controllers); ``current``: the joint angles at the start of the control step (MuJoCo
-    Playground's Go1 get-up). The seed does not say; ``stand`` learned far faster on our
-    CPU budget (see docs/training.md)."""
+    Playground's Go1 get-up). The seed does not say; the shipped policies use ``stand``
+    (docs/training.md: what was measured and why the comparison is not yet clean)."""
     scale_rad: float = 0.5
     """Radians of joint target per unit action."""
     clip: float = 10.0
