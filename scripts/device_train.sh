@@ -4,8 +4,8 @@
 # resume it under $OUT (latest checkpoint, train_meta.json, train.log, newest tensorboard file).
 #
 # Device `run` call (carry [".whl", "runs/NAME"]; see ../shared/device.md):
-#   bash scripts/device_train.sh runs/flat_teacher teacher flat
-#   TEACHER=runs/flat_teacher bash scripts/device_train.sh runs/flat_student student flat
+#   bash scripts/device_train.sh runs/flat_teacher_best teacher flat   # continue the shipped flat teacher
+#   TEACHER=runs/flat_teacher_best bash scripts/device_train.sh runs/flat_student student flat
 # Back here: copy the returned files into runs/NAME/ and resume (here or on the next lease).
 # Env: LIMIT (s, default 540), ENVS (default 512), ITERATIONS (default 100000).
 set -uo pipefail
