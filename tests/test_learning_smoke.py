@@ -179,3 +179,22 @@ def test_train_args_defaults_are_documented():
 
     fields = {f.name: f for f in dataclasses.fields(TrainArgs)}
     assert {"role", "context", "out", "envs", "iterations", "resume", "seed", "teacher"} <= set(fields)
+
+
+def test_policy_records_its_action_mapping(tmp_path: Path):
+    """A policy trained on current-relative targets says so, in its file and in ONNX, and is
+    refused by an evaluation that maps actions relative to the standing pose."""
+    from selfright.policies.registry import make_policy
+
+    out = tmp_path / "cur"
+    run(spec(out, bench=SMOKE_CFG))
+    for path in (out, out / "model_0.pt"):
+        assert make_policy(str(path), SMOKE_CFG).action_mapping == ("current", 0.5)
+        try:
+            make_policy(str(path), CFG)
+            raise AssertionError("expected ValueError")
+        except ValueError as e:
+            assert "current" in str(e) and "\n" not in str(e)
+    onnx_path, policy_path = export(ExportArgs(checkpoint=out, onnx=tmp_path / "cur.onnx"))
+    for p in (onnx_path, policy_path):
+        assert load_policy_file(p).action_mapping == ("current", 0.5)

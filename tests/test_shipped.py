@@ -54,3 +54,8 @@ def test_sr_routes_each_context_to_its_policy():
     for k, ctx in enumerate(["flat", "rough", "incline"]):
         single = make_policy(ctx, BenchmarkConfig()).act({"student": obs["student"][k : k + 1]}, np.arange(1), [ctx])
         torch.testing.assert_close(out[k : k + 1], single)
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_policy_records_stand_relative_actions(name: str):
+    assert load_policy_file(CHECKPOINT_DIR / f"{name}.pt").action_mapping == ("stand", 0.5)

@@ -62,6 +62,11 @@ class ActorMeta:
     """Learning iteration of the checkpoint it came from."""
     source: str = ""
     """Checkpoint it was exported from."""
+    action_reference: str = ""
+    """What its actions are relative to (``ActionConfig.reference``: ``stand`` or ``current``);
+    empty if not recorded (files written before it was)."""
+    action_scale_rad: float = 0.0
+    """Radians of joint target per unit action it was trained with (0 = not recorded)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -134,6 +139,8 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         context=hint.get("context", ""),
         iteration=int(ckpt.get("iter", -1)),
         source=str(hint.get("source", "")),
+        action_reference=str(hint.get("action_reference", "")),
+        action_scale_rad=float(hint.get("action_scale_rad", 0.0)),
     )
     actor = ActorMLP(meta)
     state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))

@@ -22,16 +22,20 @@ from selfright.policies.actor import GROUP_BY_DIM, FILE_FORMAT, actor_from_check
 from selfright.policies.base import Policy
 
 TORCH_SUFFIXES = (".pt", ".pth", ".jit", ".ts")
-TRAIN_META = "train_meta.json"
 
 
 class TorchPolicy(Policy):
     """A torch module ``obs (k, D) -> actions (k, J)`` reading one observation group."""
 
-    def __init__(self, module: Callable[[torch.Tensor], torch.Tensor], group: str, name: str):
+    def __init__(
+        self, module: Callable[[torch.Tensor], torch.Tensor], group: str, name: str,
+        action_mapping: tuple[str, float] | None = None,
+    ):
         self.module = module
         self.group = group
         self.name = name
+        self.action_mapping = action_mapping
+        """(reference, scale_rad) its actions were trained for, or None if not recorded."""
 
     @torch.no_grad()
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
@@ -41,11 +45,13 @@ class TorchPolicy(Policy):
 class OnnxPolicy(Policy):
     """An ONNX graph ``obs (k, D) -> actions (k, J)`` run by onnxruntime on the CPU."""
 
-    def __init__(self, session: Any, group: str, name: str):
+    def __init__(self, session: Any, group: str, name: str, action_mapping: tuple[str, float] | None = None):
         self.session = session
         self.input_name = session.get_inputs()[0].name
         self.group = group
         self.name = name
+        self.action_mapping = action_mapping
+        """(reference, scale_rad) its actions were trained for, or None if not recorded."""
 
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
         x = obs[self.group].detach().cpu().numpy().astype(np.float32)
@@ -86,13 +92,16 @@ def _load_torch(p: Path) -> Policy:
     if isinstance(payload, dict) and payload.get("format") == FILE_FORMAT:
         actor = _wrap(p, actor_from_payload, payload)
     elif isinstance(payload, dict) and ("actor_state_dict" in payload or "student_state_dict" in payload):
-        hint = dict(payload.get("infos") or {}) or _run_hint(p)
-        actor = _wrap(p, actor_from_checkpoint, payload, hint)
+        from selfright.train.checkpoints import policy_hint
+
+        actor = _wrap(p, actor_from_checkpoint, payload, policy_hint(p, payload.get("infos")))
     else:
         raise ValueError(
             f"policy file {p} holds no actor; pass a file from `selfright export` or a training checkpoint"
         )
-    return TorchPolicy(actor, actor.meta.obs_group, p.stem)
+    m = actor.meta
+    mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
+    return TorchPolicy(actor, m.obs_group, p.stem, mapping)
 
 
 def _load_jit(p: Path) -> Policy:
@@ -126,7 +135,8 @@ def _load_onnx(p: Path) -> Policy:
         group = GROUP_BY_DIM.get(dim) if isinstance(dim, int) else None
     if group not in GROUP_BY_DIM.values():
         raise ValueError(f"ONNX policy {p}: cannot tell its observation group (no metadata, input size unknown)")
-    return OnnxPolicy(session, group, p.stem)
+    ref, scale = _json_or_none(props.get("action_reference")), _json_or_none(props.get("action_scale_rad"))
+    return OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None)
 
 
 # ------------------------------------------------------------------- helpers
@@ -137,16 +147,6 @@ def _is_torchscript(p: Path) -> bool:
     with zipfile.ZipFile(p) as z:
         names = z.namelist()
     return any(n.endswith("/constants.pkl") for n in names) and any("/code/" in n for n in names)
-
-
-def _run_hint(p: Path) -> dict[str, Any]:
-    """The ``policy`` entry of the run's ``train_meta.json`` next to a checkpoint, if any."""
-    meta = p.parent / TRAIN_META
-    try:
-        data = json.loads(meta.read_text())
-        return {**data.get("policy", {}), "source": str(p)}
-    except (OSError, ValueError):
-        return {"source": str(p)}
 
 
 def _wrap(p: Path, fn: Callable[..., Any], *args: Any) -> Any:

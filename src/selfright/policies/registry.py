@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from selfright.config import BenchmarkConfig
+from selfright.config import ActionConfig, BenchmarkConfig
 from selfright.policies.base import Policy
 from selfright.policies.baselines import OpenLoopPolicy, RandomPolicy, ZeroPolicy
 from selfright.robots import get_robot
@@ -25,7 +25,30 @@ def available_policies() -> list[str]:
     return list(BASELINES) + shipped + extra
 
 
+def check_action_mapping(policy: Policy, action: ActionConfig, name: str) -> Policy:
+    """``policy`` if its recorded action mapping (``action_mapping``: reference, scale) is the
+    one ``action`` applies, or unknown; ``ValueError`` otherwise (its actions would mean other
+    joint targets than the ones it learned)."""
+    for sub in getattr(policy, "policies", {}).values():  # a multiplexer: check each policy
+        check_action_mapping(sub, action, name)
+    mapping = getattr(policy, "action_mapping", None)
+    if mapping is None:
+        return policy
+    ref, scale = mapping
+    if ref != action.reference or (scale and abs(scale - action.scale_rad) > 1e-9):
+        raise ValueError(
+            f"policy {name!r} was trained with joint targets = {ref} + {scale} rad × action, but this run maps "
+            f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with that ActionConfig"
+        )
+    return policy
+
+
 def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
+    """``_make_policy`` followed by ``check_action_mapping``."""
+    return check_action_mapping(_make_policy(name, cfg), cfg.action, name)
+
+
+def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
     """Build the policy called ``name``: a baseline, a shipped policy, ``sr``, a file path
     (``.pt`` actor file or rsl_rl checkpoint, TorchScript ``.pt``/``.jit``, or ``.onnx``), or a
     training run folder (its latest checkpoint). ``ValueError`` otherwise."""

@@ -39,3 +39,18 @@ def read_meta(run_dir: Path) -> dict[str, Any]:
         return json.loads((run_dir / META_FILE).read_text())
     except (OSError, ValueError):
         return {}
+
+
+def policy_hint(ckpt: Path, infos: dict[str, Any] | None) -> dict[str, Any]:
+    """What an actor loaded from checkpoint ``ckpt`` should record besides its weights: the
+    checkpoint's ``infos`` (else the run's ``policy`` entry), completed with the action mapping
+    of the run's ``benchmark_config`` for checkpoints written before it was recorded, and the
+    source path."""
+    meta = read_meta(ckpt.parent)
+    hint = dict(infos or meta.get("policy") or {})
+    action = (meta.get("benchmark_config") or {}).get("action") or {}
+    if "action_reference" not in hint and "reference" in action:
+        hint["action_reference"] = action["reference"]
+        hint["action_scale_rad"] = action.get("scale_rad", 0.0)
+    hint.setdefault("source", str(ckpt))
+    return hint

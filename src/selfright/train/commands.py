@@ -90,7 +90,7 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
     import torch
 
     from selfright.policies.actor import actor_from_checkpoint
-    from selfright.train.checkpoints import latest_checkpoint, read_meta
+    from selfright.train.checkpoints import latest_checkpoint, policy_hint
 
     if not checkpoint.exists():
         raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt or a run folder")
@@ -101,7 +101,7 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
         raise ValueError(f"checkpoint {ckpt} cannot be read ({str(e).splitlines()[0][:200]})") from e
     if not isinstance(data, dict):
         raise ValueError(f"{ckpt} is not a training checkpoint")
-    hint = dict(data.get("infos") or read_meta(ckpt.parent).get("policy") or {})
+    hint = policy_hint(ckpt, data.get("infos"))
     hint["source"] = str(ckpt) if source is None else source
     return actor_from_checkpoint(data, hint), ckpt
 

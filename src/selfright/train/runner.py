@@ -219,6 +219,8 @@ class TrainingRun:
             "obs_normalization": pol.obs_normalization,
             "role": self.spec.role,
             "context": self.spec.context,
+            "action_reference": self.spec.bench.action.reference,
+            "action_scale_rad": self.spec.bench.action.scale_rad,
         }
 
     def meta(self, done_it: int, checkpoint: Path | None) -> dict[str, Any]:
