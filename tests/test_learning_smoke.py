@@ -198,3 +198,18 @@ def test_policy_records_its_action_mapping(tmp_path: Path):
     onnx_path, policy_path = export(ExportArgs(checkpoint=out, onnx=tmp_path / "cur.onnx"))
     for p in (onnx_path, policy_path):
         assert load_policy_file(p).action_mapping == ("current", 0.5)
+
+
+def test_ship_checks_notes_before_writing(tmp_path: Path):
+    out = tmp_path / "t"
+    run(spec(out))
+    res = evaluate_grid(load_policy_file(out / "model_0.pt"), policy_name="t", grid="tiny", episodes=1,
+                        seed=0, out_dir=tmp_path / "eval", cfg=CFG, progress=False)
+    assert res.summary
+    dest = tmp_path / "ckpts"
+    try:
+        ship(ShipArgs(run=out, name="flat", evaluation=tmp_path / "eval", dest=dest, notes=tmp_path / "missing.md"))
+        raise AssertionError("expected ValueError")
+    except ValueError as e:
+        assert "--notes" in str(e)
+    assert not (dest / "flat.pt").exists()

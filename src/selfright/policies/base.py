@@ -23,6 +23,9 @@ class Policy(abc.ABC):
     name: str = "policy"
     groups: tuple[str, ...] = ("student", "teacher")
     """Observation groups ``act`` reads (the env computes only these)."""
+    action_mapping: tuple[str, float] | None = None
+    """(``ActionConfig.reference``, ``scale_rad``) its actions were trained for; None if not
+    recorded (baselines convert their targets for any mapping)."""
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:  # noqa: B027 - optional hook
         """Forget per-episode memory of slots ``ids`` (called when their episodes start).

@@ -35,7 +35,6 @@ class TorchPolicy(Policy):
         self.group = group
         self.name = name
         self.action_mapping = action_mapping
-        """(reference, scale_rad) its actions were trained for, or None if not recorded."""
 
     @torch.no_grad()
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
@@ -51,7 +50,6 @@ class OnnxPolicy(Policy):
         self.group = group
         self.name = name
         self.action_mapping = action_mapping
-        """(reference, scale_rad) its actions were trained for, or None if not recorded."""
 
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
         x = obs[self.group].detach().cpu().numpy().astype(np.float32)

@@ -31,7 +31,7 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str) -> Pol
     joint targets than the ones it learned)."""
     for sub in getattr(policy, "policies", {}).values():  # a multiplexer: check each policy
         check_action_mapping(sub, action, name)
-    mapping = getattr(policy, "action_mapping", None)
+    mapping = policy.action_mapping
     if mapping is None:
         return policy
     ref, scale = mapping

@@ -38,6 +38,8 @@ def ship(args: ShipArgs) -> Path:
     from selfright.policies.actor import save_actor_file
     from selfright.train.commands import load_checkpoint_actor
 
+    if args.notes is not None and not args.notes.is_file():
+        raise ValueError(f"--notes {args.notes} not found; pass a markdown file or drop --notes")
     meta = checkpoint_meta(args.run)
     summary_path = args.evaluation / "summary.json"
     if not summary_path.exists():
@@ -48,8 +50,6 @@ def ship(args: ShipArgs) -> Path:
     args.dest.mkdir(parents=True, exist_ok=True)
     out = args.dest / f"{args.name}.pt"
     save_actor_file(out, actor)
-    if args.notes is not None and not args.notes.is_file():
-        raise ValueError(f"--notes {args.notes} not found; pass a markdown file or drop --notes")
     notes = args.notes.read_text().strip() if args.notes is not None else ""
     (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group, notes))
     print(f"shipped {out} and its model card {out.with_suffix('.md')}")
