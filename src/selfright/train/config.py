@@ -14,7 +14,7 @@ from selfright.config import RandomizationConfig, RewardConfig
 
 __all__ = [
     "Context", "Role", "RewardConfig", "RandomizationConfig", "EpisodeConfig", "PolicyConfig",
-    "PPOConfig", "DistillationConfig", "TrainConfig",
+    "PPOConfig", "DistillationConfig", "ValidationConfig", "TrainConfig",
 ]
 
 Context = Literal["flat", "rough", "incline"]
@@ -114,6 +114,18 @@ class DistillationConfig:
 
 
 @dataclass(frozen=True, kw_only=True)
+class ValidationConfig:
+    """Benchmark evaluation of every saved checkpoint (``selfright.train.validation``)."""
+
+    episodes: int = 0
+    """Episodes per grid cell for each checkpoint; 0 = no validation."""
+    seed: int = 1
+    """Run seed of the validation episodes (not 0, the seed model cards report)."""
+    grid: str | None = None
+    """Named grid to validate on; default: the training context's grid (flat, rough, incline)."""
+
+
+@dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """Everything a training run needs beyond the benchmark configuration."""
 
@@ -123,6 +135,7 @@ class TrainConfig:
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
     distillation: DistillationConfig = field(default_factory=DistillationConfig)
+    validation: ValidationConfig = field(default_factory=ValidationConfig)
     checkpoint_every_s: float = 300.0
     """Wall-clock time between checkpoints (s); one is also written at the end."""
     keep_checkpoints: int = 10

@@ -263,8 +263,33 @@ class TrainingRun:
         if keep > 0:
             for _, old in list_checkpoints(self.out)[:-keep]:
                 old.unlink(missing_ok=True)
+        self._validate(path, meta["env_steps"])
         self.last_ckpt_time = time.time()
         return path
+
+    def _validate(self, ckpt: Path, env_steps: int) -> None:
+        """Benchmark the checkpoint just saved (``TrainConfig.validation``); keep the best."""
+        v = self.spec.train.validation
+        if v.episodes <= 0:
+            return
+        from selfright.train import validation
+
+        t = time.time()
+        score = validation.evaluate_checkpoint(
+            ckpt, v.grid or self.spec.context, v.episodes, v.seed, self.out / "validation" / ckpt.stem, self.spec.bench
+        )
+        score = replace(score, env_steps=env_steps)
+        best = validation.record(self.out, score, ckpt)
+        writer = self.runner.logger.writer
+        if writer is not None:
+            writer.add_scalar("Validation/success_rate", score.success_rate, score.iteration)
+        if not self.spec.quiet:
+            print(
+                f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}: {score.successes}/{score.episodes} "
+                f"= {100 * score.success_rate:.1f} % (seed {v.seed}, {time.time() - t:.0f} s)"
+                + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
+                flush=True,
+            )
 
     # ---------------------------------------------------------------- hooks
     def _on_iteration(self, it: int, extras: dict[str, float | None], loss: dict[str, float]) -> None:

@@ -1,0 +1,43 @@
+"""Checkpoint selection on the benchmark: every saved checkpoint is scored, the best is kept."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import torch
+
+from selfright.train import validation
+from selfright.train.config import ValidationConfig
+from selfright.train.validation import Score, best_score, read_scores, record
+
+from test_learning_smoke import TINY, run, spec
+
+
+def test_best_score_prefers_higher_then_earlier():
+    s = [Score(10, 1, 0.5, 1, 2), Score(20, 2, 0.75, 3, 4), Score(30, 3, 0.75, 3, 4)]
+    assert best_score(s).iteration == 20
+    assert best_score([]) is None
+
+
+def test_record_keeps_the_best_checkpoint(tmp_path: Path):
+    a, b, c = (tmp_path / f"model_{i}.pt" for i in (1, 2, 3))
+    for i, p in enumerate((a, b, c)):
+        torch.save({"x": torch.tensor(i)}, p)
+    assert record(tmp_path, Score(1, 10, 0.25, 1, 4), a)
+    assert record(tmp_path, Score(2, 20, 0.5, 2, 4), b)
+    assert not record(tmp_path, Score(3, 30, 0.5, 2, 4), c)  # a tie keeps the earlier one
+    assert [s.iteration for s in read_scores(tmp_path)] == [1, 2, 3]
+    best = torch.load(tmp_path / validation.BEST_FILE, weights_only=True)
+    assert int(best["x"]) == 1
+
+
+def test_training_validates_each_checkpoint(tmp_path: Path):
+    train = dataclasses.replace(TINY, validation=ValidationConfig(episodes=1, grid="tiny"))
+    out = tmp_path / "t"
+    run(spec(out, train=train))
+    run(spec(out, train=train, iterations=2, resume=True))
+    scores = read_scores(out)
+    assert [s.iteration for s in scores] == [0, 1]
+    assert all(s.episodes >= 1 and 0.0 <= s.success_rate <= 1.0 and s.env_steps > 0 for s in scores)
+    assert (out / validation.BEST_FILE).exists() and (out / "validation" / "model_1" / "summary.json").exists()
