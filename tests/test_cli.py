@@ -87,3 +87,9 @@ def test_evaluate_end_to_end_with_plots(tmp_path, capsys):
     for name in ("episodes.csv", "summary.json", "success.png", "ttr.png", "dtr.png", "ttr_hist.png", "dtr_hist.png"):
         assert (out / name).stat().st_size > 0
     assert "overall:" in cap.out
+
+
+def test_action_reference_must_match_the_policy(tmp_path, capsys):
+    code, cap = run_cli(["evaluate", "--policy", "flat", "--grid", "tiny", "--episodes", "1", "--action-reference", "current",
+                         "--out", str(tmp_path / "o")], capsys)
+    assert_clean_error(code, cap, "--action-reference stand")

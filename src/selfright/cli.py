@@ -11,7 +11,7 @@ from typing import Annotated, Literal, Union
 
 import tyro
 
-from selfright.config import BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, SimConfig
+from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, SimConfig
 
 Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
 
@@ -44,6 +44,8 @@ class Evaluate:
     """Seconds the goal set must be held for success."""
     episode_s: float = 10.0
     """Episode limit after settling (s)."""
+    action_reference: Literal["stand", "current"] = "stand"
+    """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
     plots: bool = True
     """Write the heatmaps and histograms."""
     progress: bool = True
@@ -86,10 +88,11 @@ class BenchSim:
     """Physics threads (0 = one per core)."""
 
 
-def _benchmark_config(threads: int = 0, batch_size: int = 64, **eval_kw) -> BenchmarkConfig:
+def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: str = "stand", **eval_kw) -> BenchmarkConfig:
     goal = {k: eval_kw.pop(k) for k in ("hold_s", "episode_s") if k in eval_kw}
     return BenchmarkConfig(
-        sim=SimConfig(threads=threads), eval=EvalConfig(batch_size=batch_size, **eval_kw), goal=GoalConfig(**goal)
+        sim=SimConfig(threads=threads), eval=EvalConfig(batch_size=batch_size, **eval_kw), goal=GoalConfig(**goal),
+        action=ActionConfig(reference=action_reference),
     )
 
 
@@ -100,6 +103,7 @@ def run_evaluate(a: Evaluate) -> None:
     cfg = _benchmark_config(
         threads=a.threads, batch_size=a.batch_size, friction=a.friction, wall_gap_ratio=a.wall_gap_ratio,
         ground_timeconst_s=a.ground_timeconst, hold_s=a.hold_s, episode_s=a.episode_s,
+        action_reference=a.action_reference,
     )
     if a.batch_size < 1:
         raise ValueError("--batch-size must be >= 1")

@@ -38,7 +38,8 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str) -> Pol
     if ref != action.reference or (scale and abs(scale - action.scale_rad) > 1e-9):
         raise ValueError(
             f"policy {name!r} was trained with joint targets = {ref} + {scale} rad × action, but this run maps "
-            f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with that ActionConfig"
+            f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with "
+            f"--action-reference {ref} (API: BenchmarkConfig(action=ActionConfig(reference={ref!r})))"
         )
     return policy
 

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Literal
 
-from typing import TYPE_CHECKING
-
-from selfright.config import BenchmarkConfig
+from selfright.config import ActionConfig, BenchmarkConfig
 from selfright.train.config import Context, Role, TrainConfig
 
 if TYPE_CHECKING:
@@ -45,6 +44,9 @@ class TrainArgs:
     """MuJoCo worker threads stepping the environments."""
     torch_threads: int = 1
     """Threads torch uses for the network updates."""
+    action_reference: Literal["stand", "current"] = "stand"
+    """Joint targets = the standing pose (stand) or the current angles (current) + 0.5 rad ×
+    action; recorded in the checkpoints (evaluate with the same --action-reference)."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
@@ -78,7 +80,7 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         physics_threads=args.physics_threads,
         torch_threads=args.torch_threads,
         train=args.train,
-        bench=bench or BenchmarkConfig(),
+        bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference)),
     )
     return run_training(spec)
 

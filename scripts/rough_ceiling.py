@@ -1,0 +1,70 @@
+"""How much of a rough tile can a standing robot count as "in the goal set"?
+
+The goal set measures trunk height above the ground *directly beneath the trunk*. On rough
+tiles that ground is not the ground under the feet, so a robot standing perfectly, trunk at
+``h`` above the mean ground under its four feet, reads ``h + mean(feet ground) - trunk ground``.
+This script samples stance positions (uniform over the central 80 % of each tile, every
+heading, feet at the A1's stance footprint) on the tiles of a named grid and prints, per
+tile, the fraction of stances that clear the bar for several stance heights. It is the
+success ceiling of a policy that stands at height ``h`` wherever it happens to get up.
+
+    python scripts/rough_ceiling.py                      # --grid rough, seed 0
+    python scripts/rough_ceiling.py --grid quick --samples 5000
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import tyro
+
+from selfright.config import BenchmarkConfig, ContextConfig
+from selfright.env.world import build_world
+from selfright.robots import get_robot
+from selfright.terrain.grid import grid_cells
+
+FOOTPRINT_M = np.array([[0.183, 0.13], [0.183, -0.13], [-0.183, 0.13], [-0.183, -0.13]])
+"""Stance foot positions in the trunk frame (x, y), A1 (hip at ±0.183, ±0.047 plus the thigh offset)."""
+
+
+@dataclass(frozen=True)
+class Args:
+    grid: str = "rough"
+    """Named grid whose tiles are sampled."""
+    seed: int = 0
+    """Terrain seed (the benchmark's run seed)."""
+    samples: int = 20000
+    """Stance positions per tile."""
+    heights: tuple[float, ...] = (0.33, 0.35, 0.37, 0.39)
+    """Stance heights above the mean foot ground to report (m)."""
+
+
+def clear_fraction(tile, bar_m: float, heights: tuple[float, ...], samples: int, rng: np.random.Generator) -> dict[float, float]:
+    half = 0.4 * tile.size_m
+    xy = rng.uniform(-half, half, size=(samples, 2))
+    yaw = rng.uniform(0.0, 2 * np.pi, samples)
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    fx = xy[:, :1] + c * FOOTPRINT_M[:, 0] - s * FOOTPRINT_M[:, 1]
+    fy = xy[:, 1:] + s * FOOTPRINT_M[:, 0] + c * FOOTPRINT_M[:, 1]
+    feet = tile.height_at(np.stack([fx.ravel(), fy.ravel()], -1)).reshape(samples, 4).mean(1)
+    offset = feet - tile.height_at(xy)
+    return {h: float(np.mean(h + offset >= bar_m)) for h in heights}
+
+
+def main(a: Args) -> None:
+    cfg = BenchmarkConfig()
+    robot = get_robot(cfg.robot.name)
+    bar = cfg.goal.height_fraction * robot.leg_length_m
+    rng = np.random.default_rng(a.seed)
+    print(f"goal bar {bar:.3f} m above the ground beneath the trunk; robot stand height {robot.stand_height_m} m")
+    print("slope%  rough_lvl  extent_m  " + "  ".join(f"h={h:.2f}" for h in a.heights))
+    for cell in grid_cells(a.grid, cfg.terrain):
+        tile = build_world(cell, cfg, ContextConfig(), a.seed).tile
+        frac = clear_fraction(tile, bar, a.heights, a.samples, rng)
+        print(f"{cell.slope_pct:6.0f}  {cell.roughness_level:9d}  {cell.roughness_extent_m:8.3f}  "
+              + "  ".join(f"{100 * frac[h]:5.1f}%" for h in a.heights))
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))
