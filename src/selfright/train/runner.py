@@ -196,6 +196,8 @@ class TrainingRun:
             teacher_policy_config(init, s.train.policy)  # refuses student runs
             r.load(str(init), load_cfg={"actor": True, "critic": True})
             self.init_ckpt = init
+            if s.train.renormalize_on_init:
+                _restart_normalizers(r.alg, self.cfg["num_steps_per_env"] * s.num_envs)
         self.start_it = start_it
         self.steps_per_it = self.cfg["num_steps_per_env"] * s.num_envs
         self.base_steps = int(self.prev_meta.get("env_steps", 0))
@@ -369,6 +371,15 @@ def run_training(spec: RunSpec) -> Path:
 
 
 # --------------------------------------------------------------------- helpers
+def _restart_normalizers(alg: Any, weight: int) -> None:
+    """Give the actor's and critic's running observation statistics the weight of ``weight``
+    samples (their mean and std are kept), so the next rollouts dominate them."""
+    for model in (alg.actor, alg.critic):
+        norm = getattr(model, "obs_normalizer", None)
+        if norm is not None and hasattr(norm, "count"):
+            norm.count.fill_(min(int(norm.count), weight))
+
+
 def _device_string(physics_threads: int, torch_threads: int) -> str:
     cpu = platform.processor() or platform.machine()
     return f"cpu ({cpu}, {os.cpu_count()} cores; physics threads {physics_threads}, torch threads {torch_threads})"

@@ -1,0 +1,133 @@
+"""Why does a policy fail? Replays a grid evaluation's episodes (same seeds, same falls as
+``selfright evaluate``) and sorts each failed episode by the state it ended in:
+
+    left tile / diverged      the episode was cut short
+    not upright               |roll| or |pitch| > 30° at the end
+    upright, feet off         upright but fewer than four feet on the ground
+    upright, 4 feet, low      upright on four feet, trunk below the goal bar
+    in goal, no 1 s hold      in the goal set at the end or earlier, but never for the full hold
+
+and prints, for the "low" class, the trunk height above the ground beneath it and above the
+mean ground under the feet (they differ on rough tiles; the goal set reads the first).
+
+    python scripts/failure_modes.py --policy rough --grid rough --episodes 64
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import torch
+import tyro
+
+from selfright.config import BenchmarkConfig
+from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.world import build_world
+from selfright.evaluate.runner import context_config, episode_seed
+from selfright.policies.registry import make_policy
+from selfright.terrain import grid_cells
+
+
+@dataclass(frozen=True)
+class Args:
+    policy: str = "flat"
+    """Policy name, file or run folder (as for ``selfright evaluate``)."""
+    grid: str = "flat"
+    """Named grid."""
+    episodes: int = 64
+    """Episodes per cell."""
+    seed: int = 0
+    """Run seed (same episodes as ``selfright evaluate --seed``)."""
+
+
+def main(a: Args) -> None:
+    cfg = BenchmarkConfig()
+    policy = make_policy(a.policy, cfg)
+    cells = grid_cells(a.grid, cfg.terrain)
+    worlds = [build_world(c, cfg, context_config(cfg), a.seed) for c in cells]
+    env = RecoveryEnv(cfg, worlds, min(64, a.episodes))
+    bar = cfg.goal.height_fraction * env.robot.leg_length_m
+    tilt = math.radians(cfg.goal.max_tilt_deg)
+    for k, cell in enumerate(cells):
+        classes: Counter[str] = Counter()
+        low_h: list[tuple[float, float]] = []
+        for b in range(0, a.episodes, env.num_envs):
+            eps = list(range(b, min(b + env.num_envs, a.episodes)))
+            ids = np.arange(len(eps))
+            seeds = np.array([episode_seed(a.seed, cell, e) for e in eps], dtype=np.int64)
+            env.reset(ids, np.full(len(eps), k), [np.random.default_rng(s) for s in seeds])
+            policy.reset(ids, seeds)
+            success = np.zeros(len(eps), bool)
+            ever_goal = np.zeros(len(eps), bool)
+            failed = np.zeros(len(eps), bool)
+            last = {}
+            active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
+            failed[~np.isin(ids, active)] = True
+            while len(active):
+                obs = env.observe(active, policy.groups)
+                with torch.no_grad():
+                    act = policy.act(obs, active, [cell.context] * len(active))
+                out = env.step(act, active)
+                st = out.state
+                ever_goal[active] |= out.in_goal.numpy()
+                success[active[out.succeeded.numpy()]] = True
+                failed[active[out.failed.numpy()]] = True
+                for j, i in enumerate(active):
+                    last[i] = (
+                        bool(abs(float(st.roll[j])) <= tilt and abs(float(st.pitch[j])) <= tilt),
+                        int(st.feet_contact[j].sum()),
+                        float(st.height[j]),
+                    )
+                active = active[~out.done.numpy()]
+            # Slots keep their final state until the next reset: feet positions at the end.
+            feet_xy = _feet_xy(env, ids)
+            feet_ground = env.ground_height(np.repeat(ids, 4), feet_xy.reshape(-1, 2)).reshape(-1, 4).mean(1)
+            trunk_z = env.state[ids, env.sl.pos][:, 2]
+            for i in ids:
+                if success[i]:
+                    classes["success"] += 1
+                    continue
+                up, feet, h = last.get(i, (False, 0, 0.0))
+                h_feet = float(trunk_z[i] - feet_ground[i])
+                if failed[i]:
+                    classes["left tile / diverged"] += 1
+                elif not up:
+                    classes["not upright"] += 1
+                elif feet < 4:
+                    classes["upright, feet off"] += 1
+                elif h < bar:
+                    classes["upright, 4 feet, low"] += 1
+                    low_h.append((h, h_feet))
+                else:
+                    classes["in goal, no 1 s hold"] += 1
+                if ever_goal[i] and not (up and feet == 4 and h >= bar):
+                    classes["(was in goal earlier)"] += 1
+        print(f"cell slope {cell.slope_pct:.0f} %, roughness level {cell.roughness_level} ({a.episodes} episodes):")
+        for name, n in classes.most_common():
+            print(f"  {name:26s} {n:4d}")
+        if low_h:
+            h = np.array(low_h)
+            print(f"  low: height above ground beneath trunk median {np.median(h[:, 0]):.3f} m; "
+                  f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m)")
+    env.close()
+
+
+def _feet_xy(env: RecoveryEnv, ids: np.ndarray) -> np.ndarray:
+    """(k, 4, 2) world x-y of the feet of slots ``ids`` (forward kinematics of their states)."""
+    out = np.zeros((len(ids), 4, 2))
+    for k, i in enumerate(ids):
+        model = env.models[i]
+        data = mujoco.MjData(model)
+        mujoco.mj_setState(model, data, env.state[i], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        mujoco.mj_kinematics(model, data)
+        for f, g in enumerate(env.robot.foot_geoms):
+            out[k, f] = data.geom_xpos[model.geom(g).id][:2]
+    return out
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))
