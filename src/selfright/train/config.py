@@ -136,13 +136,12 @@ class TrainConfig:
     ppo: PPOConfig = field(default_factory=PPOConfig)
     distillation: DistillationConfig = field(default_factory=DistillationConfig)
     validation: ValidationConfig = field(default_factory=ValidationConfig)
-    renormalize_on_init: bool = True
-    """With ``--init-from``: restart the observation normalisers' running statistics at the
-    weight of one rollout, so they follow the new context within a few iterations. Kept at
-    the source run's weight (10.6 M samples for the flat teacher) they barely move, and a
-    feature that was constant there is blown up: the slope angle is 0 with std 0 on the flat
-    plane, so on the 20° incline it enters the network as 0.35 rad / 0.01 (the normaliser's
-    eps) = 35 standard deviations."""
+    recenter_on_init: bool = True
+    """With ``--init-from``: observation features that never varied in the source run get the
+    new context's mean as their normaliser mean (the rest of the statistics are kept). Without
+    it such a feature is blown up: the slope angle is 0 with std 0 on the flat plane, so on the
+    20° incline it enters the flat teacher's network as 0.35 rad / 0.01 (the normaliser's eps)
+    = 35 standard deviations."""
     checkpoint_every_s: float = 300.0
     """Wall-clock time between checkpoints (s); one is also written at the end."""
     keep_checkpoints: int = 10

@@ -196,8 +196,10 @@ class TrainingRun:
             teacher_policy_config(init, s.train.policy)  # refuses student runs
             r.load(str(init), load_cfg={"actor": True, "critic": True})
             self.init_ckpt = init
-            if s.train.renormalize_on_init:
-                _restart_normalizers(r.alg, self.cfg["num_steps_per_env"] * s.num_envs)
+            if s.train.recenter_on_init:
+                moved = _recenter_constant_features(r.alg, self.env.get_observations())
+                if moved and not s.quiet:
+                    print(f"--init-from: re-centred observation features constant in the source run: {moved}")
         self.start_it = start_it
         self.steps_per_it = self.cfg["num_steps_per_env"] * s.num_envs
         self.base_steps = int(self.prev_meta.get("env_steps", 0))
@@ -371,13 +373,23 @@ def run_training(spec: RunSpec) -> Path:
 
 
 # --------------------------------------------------------------------- helpers
-def _restart_normalizers(alg: Any, weight: int) -> None:
-    """Give the actor's and critic's running observation statistics the weight of ``weight``
-    samples (their mean and std are kept), so the next rollouts dominate them."""
-    for model in (alg.actor, alg.critic):
+def _recenter_constant_features(alg: Any, obs: Any, eps: float = 1e-3) -> list[int]:
+    """Features that never varied in the source run (running std < ``eps``) get the mean of
+    ``obs`` (the new context's first observations) as their running mean, in the actor's and
+    critic's normalisers; every other statistic is left as it is. Returns those features'
+    indices (of the actor's input)."""
+    moved: list[int] = []
+    for model, name in ((alg.actor, "actor"), (alg.critic, "critic")):
         norm = getattr(model, "obs_normalizer", None)
-        if norm is not None and hasattr(norm, "count"):
-            norm.count.fill_(min(int(norm.count), weight))
+        if norm is None or not hasattr(norm, "_mean"):
+            continue
+        x = torch.cat([obs[g] for g in model.obs_groups], dim=-1).float()
+        idx = (norm._std.squeeze(0) < eps).nonzero().flatten()
+        if len(idx):
+            norm._mean[0, idx] = x[:, idx].mean(dim=0)
+        if name == "actor":
+            moved = idx.tolist()
+    return moved
 
 
 def _device_string(physics_threads: int, torch_threads: int) -> str:
