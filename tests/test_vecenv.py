@@ -95,3 +95,19 @@ def test_time_out_resets_and_is_reported(flat_worlds):
     assert "Episode_Reward/orientation" in extras["log"] and "Episode/success_rate" in extras["log"]
     assert (env.episode_length_buf == 0).all() and (env.env.step_count == 0).all()
     env.close()
+
+
+@pytest.mark.parametrize("as_timeout", [True, False])
+def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
+    """Off the tile the episode ends; by default as a bootstrapped time-out, not a terminal
+    state that would pay a robot with negative returns for rolling away."""
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(off_tile_is_timeout=as_timeout))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
+    x = env.env.sl.pos.start
+    env.env.state[0, x] = CFG.terrain.tile_size_m / 2 - 0.1  # inside the edge margin
+    with torch.inference_mode():
+        _, _, dones, extras = env.step(torch.zeros(2, 12))
+    assert dones.tolist() == [True, False]
+    assert extras["time_outs"].tolist() == [as_timeout, False]
+    assert float(extras["log"]["Episode/left_tile_rate"]) == 1.0
+    env.close()

@@ -16,7 +16,8 @@ steps). ``Metrics/in_goal`` (fraction of env steps in the goal set) tracks progr
 judge policies with ``selfright evaluate``.
 
 Training episodes last ``EpisodeConfig.episode_s`` (10 s) after the fall protocol; they end
-early only on failure (diverged physics or leaving the tile), not on success, so the policy
+early only when the physics diverges (terminal) or the robot leaves the tile (a time-out:
+bootstrapped, see ``EpisodeConfig.off_tile_is_timeout``), not on success, so the policy
 learns to keep standing.
 """
 
@@ -141,10 +142,14 @@ class RecoveryVecEnv(VecEnv):
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
-        terminated = out.failed.clone()
+        diverged = env.diverged.clone()
+        left_tile = out.failed & ~diverged
+        terminated = out.failed & diverged
+        if not self.train_cfg.episode.off_tile_is_timeout:
+            terminated |= left_tile
         if self.train_cfg.episode.terminate_on_success:
             terminated |= out.succeeded
-        time_out = (self.episode_length_buf >= self.max_episode_length) & ~terminated
+        time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile) & ~terminated
         dones = terminated | time_out
 
         log: dict[str, float | torch.Tensor] = {f"Reward/{n}": v.mean() for n, v in terms.items()}
@@ -159,6 +164,7 @@ class RecoveryVecEnv(VecEnv):
                 log[f"Episode_Reward/{name}"] = self.episode_sums[name][done_ids].mean()
             log["Episode/success_rate"] = self.ever_succeeded[done_ids].float().mean()
             log["Episode/failure_rate"] = out.failed[done_ids].float().mean()
+            log["Episode/left_tile_rate"] = left_tile[done_ids].float().mean()
             log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
             self._reset(done_ids.numpy())
         self._obs = self._observe()
