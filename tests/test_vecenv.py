@@ -111,3 +111,24 @@ def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
     assert extras["time_outs"].tolist() == [as_timeout, False]
     assert float(extras["log"]["Episode/left_tile_rate"]) == 1.0
     env.close()
+
+
+def test_incline_curriculum_levels_move_with_the_goal_window():
+    ep = EpisodeConfig(curriculum=True, incline_curriculum_deg=(5.0, 20.0), episode_s=0.1)
+    cells = training_cells("incline", CFG, ep)
+    assert [round(c.slope_deg, 3) for c in cells] == [5.0, 20.0]
+    worlds = make_training_worlds("incline", CFG, 0, ep)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), worlds, num_envs=3, seed=0)
+    assert env.curriculum and (torch.from_numpy(env.env.world_idx) == 0).all()  # everyone starts easy
+    ids = torch.arange(3)
+    env.tail_goal_steps[:] = torch.tensor([env.window, env.window, 0])
+    env._update_levels(ids, torch.tensor([False, True, False]))
+    assert env.level.tolist() == [1, 0, 0]  # promoted; left the tile; never in the goal
+    env._update_levels(ids[:1], torch.tensor([False]))
+    assert env.level.tolist() == [1, 0, 0]  # clamped at the top
+    env._reset(np.arange(3))
+    assert env.env.world_idx.tolist() == [1, 0, 0]
+    env.tail_goal_steps[:] = 0
+    env._update_levels(ids, torch.zeros(3, dtype=torch.bool))
+    assert env.level.tolist() == [0, 0, 0]
+    env.close()

@@ -39,6 +39,15 @@ class EpisodeConfig:
     patch of an unbounded slope; the benchmark still counts leaving it as a failure."""
     terminate_on_success: bool = False
     """End the episode when the goal hold completes; off = keep holding until the time-out."""
+    curriculum: bool = False
+    """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
+    rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the
+    easiest, moves up after an episode whose last ``curriculum_window_s`` were mostly in the
+    goal set and down after one that ended with none (or off the tile)."""
+    incline_curriculum_deg: tuple[float, ...] = (5.0, 10.0, 15.0, 20.0)
+    """Slopes of the ``incline`` context's curriculum levels (deg); the last is the context's 20°."""
+    curriculum_window_s: float = 1.0
+    """Final stretch of an episode that decides promotion (s)."""
     rough_variants: int = 8
     """Tiles of the ``rough`` context, roughness extents evenly spaced up to ``rough_max_extent_m``."""
     rough_max_extent_m: float = 0.35

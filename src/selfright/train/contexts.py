@@ -5,11 +5,15 @@ rough:   level ground, ``EpisodeConfig.rough_variants`` tiles whose roughness ex
          evenly spaced up to ``rough_max_extent_m`` (noise wavelength: ``TerrainConfig``'s,
          half a body length). Each episode draws one tile.
 incline: a 20° smooth slope rising along +x. No yaw variants are needed: the fall
-         orientation is uniform on SO(3), so every heading on the slope occurs.
+         orientation is uniform on SO(3), so every heading on the slope occurs. With
+         ``EpisodeConfig.curriculum`` one tile per slope of ``incline_curriculum_deg``.
+
+Tiles are listed from easy to hard (the curriculum's levels).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -29,7 +33,12 @@ def training_cells(context: str, cfg: BenchmarkConfig, episode: EpisodeConfig | 
     if context == "flat":
         return grid_cells("flat", cfg.terrain)
     if context == "incline":
-        return grid_cells("incline", cfg.terrain)
+        top = grid_cells("incline", cfg.terrain)[0]
+        if not episode.curriculum:
+            return [top]
+        return [
+            replace(top, slope_pct=100.0 * math.tan(math.radians(deg))) for deg in episode.incline_curriculum_deg
+        ]
     if context == "rough":
         base = grid_cells("flat", cfg.terrain)[0]
         top = cfg.terrain.num_roughness_levels - 1

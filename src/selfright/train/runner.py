@@ -103,7 +103,7 @@ class _HookLogger(Logger):
         self.hook = hook
 
     def log(self, it: int, *args: Any, **kwargs: Any) -> None:
-        extras = {k: _mean_extra(self.ep_extras, k) for k in ("Episode/success_rate", "Metrics/in_goal")}
+        extras = {k: _mean_extra(self.ep_extras, k) for k in ("Episode/success_rate", "Metrics/in_goal", "Curriculum/mean_level")}
         loss = kwargs.get("loss_dict", {})  # rsl_rl's runner passes every argument by keyword
         with contextlib.redirect_stdout(io.StringIO()):
             super().log(it, *args, **kwargs)
@@ -316,13 +316,15 @@ class TrainingRun:
         lb = self.runner.logger
         ep_ret = f"{sum(lb.rewbuffer) / len(lb.rewbuffer):7.2f}" if lb.rewbuffer else "    n/a"
         succ, goal = extras.get("Episode/success_rate"), extras.get("Metrics/in_goal")
+        level = extras.get("Curriculum/mean_level")
         losses = " ".join(f"{k} {v:.4f}" for k, v in loss.items())
         print(
             f"[{self.spec.role}/{self.spec.context}] it {it + 1}/{total}  "
             f"steps {self.base_steps + done * self.steps_per_it:,}  {rate:,.0f} steps/s  "
             f"{60 * done / max(elapsed, 1e-9):.1f} it/min  ep_return {ep_ret}  "
             f"success {'n/a' if succ is None else f'{succ:.2f}'}  in_goal {'n/a' if goal is None else f'{goal:.2f}'}  "
-            f"{losses}  "
+            + ("" if level is None else f"level {level:.2f}  ")
+            + f"{losses}  "
             f"elapsed {_hms(elapsed)}  eta {_hms(eta)}",
             flush=True,
         )

@@ -79,6 +79,13 @@ class RecoveryVecEnv(VecEnv):
         self.term_names = tuple(reward_weights(train.reward))
         self.episode_sums = {name: torch.zeros(num_envs) for name in self.term_names}
         self.ever_succeeded = torch.zeros(num_envs, dtype=torch.bool)
+        ep = train.episode
+        self.curriculum = ep.curriculum and len(worlds) > 1
+        self.level = torch.zeros(num_envs, dtype=torch.long)
+        """Curriculum level (index into ``worlds``) of each slot's next episode."""
+        self.window = max(1, int(round(ep.curriculum_window_s / self.dt)))
+        self.tail_goal_steps = torch.zeros(num_envs, dtype=torch.long)
+        """In-goal control steps within the final ``window`` steps of the current episode."""
         self.reset_all()
 
     # ------------------------------------------------------------------ resets
@@ -94,7 +101,10 @@ class RecoveryVecEnv(VecEnv):
         if k == 0:
             return
         env = self.env
-        world_idx = self.rng.integers(len(env.worlds), size=k)
+        if self.curriculum:
+            world_idx = self.level[torch.from_numpy(ids)].numpy()
+        else:
+            world_idx = self.rng.integers(len(env.worlds), size=k)
         rngs = self.rng.spawn(k)
         models = None
         if self.randomizer is not None:
@@ -108,6 +118,7 @@ class RecoveryVecEnv(VecEnv):
         else:
             env.factors[t] = 1.0
         self.episode_length_buf[t] = 0
+        self.tail_goal_steps[t] = 0
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
             s[t] = 0.0
@@ -142,6 +153,8 @@ class RecoveryVecEnv(VecEnv):
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
+        in_tail = self.episode_length_buf > self.max_episode_length - self.window
+        self.tail_goal_steps += (out.in_goal & in_tail).long()
         diverged = env.diverged.clone()
         left_tile = out.failed & ~diverged
         terminated = out.failed & diverged
@@ -166,10 +179,23 @@ class RecoveryVecEnv(VecEnv):
             log["Episode/failure_rate"] = out.failed[done_ids].float().mean()
             log["Episode/left_tile_rate"] = left_tile[done_ids].float().mean()
             log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
+            if self.curriculum:
+                self._update_levels(done_ids, left_tile[done_ids])
+                log["Curriculum/mean_level"] = self.level.float().mean()
+                log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
             self._reset(done_ids.numpy())
         self._obs = self._observe()
         extras = {"time_outs": time_out, "log": log}
         return self._obs, reward, dones, extras
+
+    def _update_levels(self, ids: torch.Tensor, left_tile: torch.Tensor) -> None:
+        """Promote slots whose finished episode spent at least half its final window in the
+        goal set; demote those that spent none of it there or left the tile."""
+        tail = self.tail_goal_steps[ids]
+        up = (tail * 2 >= self.window) & ~left_tile
+        down = (tail == 0) | left_tile
+        step = up.long() - (down & ~up).long()
+        self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)
 
     def close(self) -> None:
         self.env.close()
