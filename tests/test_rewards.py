@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -127,3 +128,17 @@ def test_standing_height_on_slopes():
     assert z[0].item() == pytest.approx(0.35)
     assert z[1].item() == pytest.approx(0.35 / math.cos(math.radians(20.0)), rel=1e-5)
     assert z[2].item() == pytest.approx(0.35 * math.sqrt(2.0), rel=1e-5)
+
+
+def test_goal_set_term_is_off_by_default_and_pays_in_goal():
+    rs = make_state()
+    ctx = R.RewardContext(
+        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, in_goal=torch.tensor([True, False, False]),
+    )
+    base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
+    assert "goal_set" not in terms  # Table I exactly
+    total, terms = R.weighted_rewards(rs, ctx, RewardConfig(goal_set=5.0), 0.02)
+    torch.testing.assert_close(total - base, torch.tensor([5.0 * 0.02, 0.0, 0.0]))
+    with pytest.raises(ValueError):
+        R.weighted_rewards(rs, dataclasses.replace(ctx, in_goal=None), RewardConfig(goal_set=5.0), 0.02)

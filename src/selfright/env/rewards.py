@@ -73,6 +73,12 @@ def all_feet_contact(rs: RobotState) -> torch.Tensor:
     return rs.feet_contact.all(dim=-1).float()
 
 
+def goal_set_indicator(in_goal: torch.Tensor) -> torch.Tensor:
+    """(n,) 1 while in the goal set, else 0. Not a Table I term: used only with a nonzero
+    ``RewardConfig.goal_set`` weight (ablations)."""
+    return in_goal.float()
+
+
 def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
     """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
     above the ground beneath as z is, of a robot standing square to the slope with its trunk
@@ -98,11 +104,13 @@ class RewardContext:
     """(J,) upper joint limits (rad)."""
     target_height_m: float | torch.Tensor
     """Standing height z* (m), a scalar or (n,) per env (see ``standing_height``)."""
+    in_goal: torch.Tensor | None = None
+    """(n,) bool, in the goal set after this step (needed only by the ``goal_set`` term)."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,)."""
-    return {
+    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` if its weight is nonzero."""
+    terms = {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
         "torques": torque_l2(rs),
@@ -113,11 +121,16 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         "joint_limits": joint_limit_violation(rs, ctx.joint_low, ctx.joint_high),
         "feet_contact": all_feet_contact(rs),
     }
+    if cfg.goal_set != 0.0:
+        if ctx.in_goal is None:
+            raise ValueError("the goal_set reward term needs RewardContext.in_goal")
+        terms["goal_set"] = goal_set_indicator(ctx.in_goal)
+    return terms
 
 
 def reward_weights(cfg: RewardConfig) -> dict[str, float]:
     """Weight of every term, keyed like ``reward_terms``."""
-    return {
+    weights = {
         "orientation": cfg.orientation,
         "vertical_velocity": cfg.vertical_velocity,
         "torques": cfg.torques,
@@ -128,6 +141,9 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
         "joint_limits": cfg.joint_limits,
         "feet_contact": cfg.feet_contact,
     }
+    if cfg.goal_set != 0.0:
+        weights["goal_set"] = cfg.goal_set
+    return weights
 
 
 def weighted_rewards(

@@ -148,6 +148,7 @@ class RecoveryVecEnv(VecEnv):
             joint_low=self.joint_low,
             joint_high=self.joint_high,
             target_height_m=self.world_target_m[torch.from_numpy(env.world_idx)],
+            in_goal=out.in_goal,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
