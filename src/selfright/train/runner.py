@@ -136,6 +136,8 @@ class TrainingRun:
             raise ValueError(f"--envs must be ≥ 1 (got {s.num_envs})")
         if s.iterations < 0:
             raise ValueError(f"--iterations must be ≥ 0 (got {s.iterations})")
+        if s.iterations == 0 and not s.resume:
+            raise ValueError("--iterations 0: a new run needs at least 1 iteration to train")
         if s.role == "student" and s.teacher is None:
             raise ValueError("--role student needs --teacher RUN_DIR (a trained teacher run or checkpoint)")
         if s.teacher is not None and not s.teacher.exists():
