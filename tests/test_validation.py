@@ -17,6 +17,8 @@ from test_learning_smoke import TINY, run, spec
 def test_best_score_prefers_higher_then_earlier():
     s = [Score(10, 1, 0.5, 1, 2), Score(20, 2, 0.75, 3, 4), Score(30, 3, 0.75, 3, 4)]
     assert best_score(s).iteration == 20
+    # 29/64 written to the CSV as 0.4531 ties with an exact 29/64 read back: the earlier wins.
+    assert best_score([Score(208, 1, 0.4531, 29, 64), Score(599, 2, 29 / 64, 29, 64)]).iteration == 208
     assert best_score([]) is None
 
 
@@ -28,6 +30,11 @@ def test_record_keeps_the_best_checkpoint(tmp_path: Path):
     assert record(tmp_path, Score(2, 20, 0.5, 2, 4), b)
     assert not record(tmp_path, Score(3, 30, 0.5, 2, 4), c)  # a tie keeps the earlier one
     assert [s.iteration for s in read_scores(tmp_path)] == [1, 2, 3]
+    # A tie of 29/64 against the CSV's rounded 0.4531 is still a tie.
+    other = tmp_path / "other"
+    other.mkdir()
+    assert record(other, Score(208, 1, 29 / 64, 29, 64), a)
+    assert not record(other, Score(599, 2, 29 / 64, 29, 64), b)
     best = torch.load(tmp_path / validation.BEST_FILE, weights_only=True)
     assert int(best["x"]) == 1
 

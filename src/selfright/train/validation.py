@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import shutil
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 from selfright.config import BenchmarkConfig
@@ -50,9 +51,14 @@ def read_scores(run_dir: Path) -> list[Score]:
         ]
 
 
+def _rate(s: Score) -> Fraction:
+    """Exact success rate (the CSV's rounded float would break ties)."""
+    return Fraction(s.successes, max(s.episodes, 1))
+
+
 def best_score(scores: list[Score]) -> Score | None:
     """Highest success rate; ties go to the earlier checkpoint (fewer steps, same evidence)."""
-    return max(scores, key=lambda s: (s.success_rate, -s.iteration), default=None)
+    return max(scores, key=lambda s: (_rate(s), -s.iteration), default=None)
 
 
 def evaluate_checkpoint(ckpt: Path, grid: str, episodes: int, seed: int, out_dir: Path, bench: BenchmarkConfig) -> Score:
@@ -81,7 +87,7 @@ def record(run_dir: Path, score: Score, ckpt: Path) -> bool:
         if new_file:
             w.writerow(FIELDS)
         w.writerow([score.iteration, score.env_steps, f"{score.success_rate:.4f}", score.successes, score.episodes])
-    is_best = previous is None or score.success_rate > previous.success_rate
+    is_best = previous is None or _rate(score) > _rate(previous)
     if is_best:
         tmp = run_dir / (BEST_FILE + ".tmp")
         shutil.copyfile(ckpt, tmp)
