@@ -1,0 +1,33 @@
+"""The diagnostic scripts run and print what their docs promise."""
+
+from __future__ import annotations
+
+import runpy
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
+
+
+def run_script(name: str, args: list[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sys, "argv", [name, *args])
+    runpy.run_path(str(SCRIPTS / name), run_name="__main__")
+
+
+def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
+    run_script("rough_ceiling.py", ["--grid", "rough", "--samples", "500", "--heights", "0.35", "0.7"], monkeypatch)
+    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip().startswith("0 ")]
+    assert len(rows) == 3
+    for row in rows:
+        low, high = (float(v.rstrip("%")) for v in row[-2:])
+        assert 0.0 <= low <= high == 100.0  # 0.7 m minus the largest extent (0.32 m) still clears 0.32 m
+
+
+def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
+    run_script("failure_modes.py", ["--policy", "zero", "--grid", "flat", "--episodes", "4"], monkeypatch)
+    out = capsys.readouterr().out
+    counts = [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ") and "(was" not in line
+              and not line.strip().startswith("low:")]
+    assert sum(counts) == 4
