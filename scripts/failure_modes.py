@@ -64,7 +64,6 @@ def main(a: Args) -> None:
             success = np.zeros(len(eps), bool)
             ever_goal = np.zeros(len(eps), bool)
             failed = np.zeros(len(eps), bool)
-            last = {}
             active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
             failed[~np.isin(ids, active)] = True
             while len(active):
@@ -72,18 +71,15 @@ def main(a: Args) -> None:
                 with torch.no_grad():
                     act = policy.act(obs, active, [cell.context] * len(active))
                 out = env.step(act, active)
-                st = out.state
                 ever_goal[active] |= out.in_goal.numpy()
                 success[active[out.succeeded.numpy()]] = True
                 failed[active[out.failed.numpy()]] = True
-                for j, i in enumerate(active):
-                    last[i] = (
-                        bool(abs(float(st.roll[j])) <= tilt and abs(float(st.pitch[j])) <= tilt),
-                        int(st.feet_contact[j].sum()),
-                        float(st.height[j]),
-                    )
                 active = active[~out.done.numpy()]
-            # Slots keep their final state until the next reset: feet positions at the end.
+            # Slots keep their final state (and sensors) until the next reset: classify it.
+            st = env.robot_state(ids)
+            upright = ((st.roll.abs() <= tilt) & (st.pitch.abs() <= tilt)).numpy()
+            feet_down = st.feet_contact.sum(dim=-1).numpy()
+            height = st.height.numpy()
             feet_xy = _feet_xy(env, ids)
             feet_ground = env.ground_height(np.repeat(ids, 4), feet_xy.reshape(-1, 2)).reshape(-1, 4).mean(1)
             trunk_z = env.state[ids, env.sl.pos][:, 2]
@@ -91,7 +87,7 @@ def main(a: Args) -> None:
                 if success[i]:
                     classes["success"] += 1
                     continue
-                up, feet, h = last.get(i, (False, 0, 0.0))
+                up, feet, h = bool(upright[i]), int(feet_down[i]), float(height[i])
                 h_feet = float(trunk_z[i] - feet_ground[i])
                 if failed[i]:
                     classes["left tile / diverged"] += 1

@@ -15,10 +15,10 @@ from test_learning_smoke import TINY, run, spec
 
 
 def test_best_score_prefers_higher_then_earlier():
-    s = [Score(10, 1, 0.5, 1, 2), Score(20, 2, 0.75, 3, 4), Score(30, 3, 0.75, 3, 4)]
+    s = [Score(10, 1, 1, 2), Score(20, 2, 3, 4), Score(30, 3, 3, 4)]
     assert best_score(s).iteration == 20
-    # 29/64 written to the CSV as 0.4531 ties with an exact 29/64 read back: the earlier wins.
-    assert best_score([Score(208, 1, 0.4531, 29, 64), Score(599, 2, 29 / 64, 29, 64)]).iteration == 208
+    # Equal counts tie; the earlier checkpoint wins.
+    assert best_score([Score(208, 1, 29, 64), Score(599, 2, 29, 64)]).iteration == 208
     assert best_score([]) is None
 
 
@@ -26,15 +26,15 @@ def test_record_keeps_the_best_checkpoint(tmp_path: Path):
     a, b, c = (tmp_path / f"model_{i}.pt" for i in (1, 2, 3))
     for i, p in enumerate((a, b, c)):
         torch.save({"x": torch.tensor(i)}, p)
-    assert record(tmp_path, Score(1, 10, 0.25, 1, 4), a)
-    assert record(tmp_path, Score(2, 20, 0.5, 2, 4), b)
-    assert not record(tmp_path, Score(3, 30, 0.5, 2, 4), c)  # a tie keeps the earlier one
+    assert record(tmp_path, Score(1, 10, 1, 4), a)
+    assert record(tmp_path, Score(2, 20, 2, 4), b)
+    assert not record(tmp_path, Score(3, 30, 2, 4), c)  # a tie keeps the earlier one
     assert [s.iteration for s in read_scores(tmp_path)] == [1, 2, 3]
     # A tie of 29/64 against the CSV's rounded 0.4531 is still a tie.
     other = tmp_path / "other"
     other.mkdir()
-    assert record(other, Score(208, 1, 29 / 64, 29, 64), a)
-    assert not record(other, Score(599, 2, 29 / 64, 29, 64), b)
+    assert record(other, Score(208, 1, 29, 64), a)
+    assert not record(other, Score(599, 2, 29, 64), b)
     best = torch.load(tmp_path / validation.BEST_FILE, weights_only=True)
     assert int(best["x"]) == 1
 

@@ -269,11 +269,11 @@ class TrainingRun:
         if keep > 0:
             for _, old in list_checkpoints(self.out)[:-keep]:
                 old.unlink(missing_ok=True)
-        self._validate(path, meta["env_steps"])
+        self._validate(path, it, meta["env_steps"])
         self.last_ckpt_time = time.time()
         return path
 
-    def _validate(self, ckpt: Path, env_steps: int) -> None:
+    def _validate(self, ckpt: Path, it: int, env_steps: int) -> None:
         """Benchmark the checkpoint just saved (``TrainConfig.validation``); keep the best."""
         v = self.spec.train.validation
         if v.episodes <= 0:
@@ -282,9 +282,9 @@ class TrainingRun:
 
         t = time.time()
         score = validation.evaluate_checkpoint(
-            ckpt, v.grid or self.spec.context, v.episodes, v.seed, self.out / "validation" / ckpt.stem, self.spec.bench
+            ckpt, iteration=it, env_steps=env_steps, grid=v.grid or self.spec.context, episodes=v.episodes,
+            seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=self.spec.bench,
         )
-        score = replace(score, env_steps=env_steps)
         best = validation.record(self.out, score, ckpt)
         writer = self.runner.logger.writer
         if writer is not None:

@@ -20,7 +20,6 @@ from __future__ import annotations
 import csv
 import shutil
 from dataclasses import dataclass
-from fractions import Fraction
 from pathlib import Path
 
 from selfright.config import BenchmarkConfig
@@ -34,9 +33,14 @@ FIELDS = ("iteration", "env_steps", "success_rate", "successes", "episodes")
 class Score:
     iteration: int
     env_steps: int
-    success_rate: float
     successes: int
     episodes: int
+
+    @property
+    def success_rate(self) -> float:
+        """From the counts, so equal fractions compare equal (the CSV's rounded column is for
+        reading only)."""
+        return self.successes / max(self.episodes, 1)
 
 
 def read_scores(run_dir: Path) -> list[Score]:
@@ -46,34 +50,30 @@ def read_scores(run_dir: Path) -> list[Score]:
         return []
     with path.open(newline="") as f:
         return [
-            Score(int(r["iteration"]), int(r["env_steps"]), float(r["success_rate"]), int(r["successes"]), int(r["episodes"]))
+            Score(int(r["iteration"]), int(r["env_steps"]), int(r["successes"]), int(r["episodes"]))
             for r in csv.DictReader(f)
         ]
 
 
-def _rate(s: Score) -> Fraction:
-    """Exact success rate (the CSV's rounded float would break ties)."""
-    return Fraction(s.successes, max(s.episodes, 1))
-
-
 def best_score(scores: list[Score]) -> Score | None:
     """Highest success rate; ties go to the earlier checkpoint (fewer steps, same evidence)."""
-    return max(scores, key=lambda s: (_rate(s), -s.iteration), default=None)
+    return max(scores, key=lambda s: (s.success_rate, -s.iteration), default=None)
 
 
-def evaluate_checkpoint(ckpt: Path, grid: str, episodes: int, seed: int, out_dir: Path, bench: BenchmarkConfig) -> Score:
-    """Success of checkpoint ``ckpt`` on ``grid`` (``episodes`` per cell, run seed ``seed``)."""
+def evaluate_checkpoint(
+    ckpt: Path, *, iteration: int, env_steps: int, grid: str, episodes: int, seed: int, out_dir: Path, bench: BenchmarkConfig
+) -> Score:
+    """Success of checkpoint ``ckpt`` (saved after ``iteration``, ``env_steps``) on ``grid``
+    (``episodes`` per cell, run seed ``seed``)."""
     from selfright.evaluate.runner import evaluate_grid
     from selfright.policies.registry import make_policy
-    from selfright.train.checkpoints import CHECKPOINT_RE
 
     policy = make_policy(str(ckpt), bench)
     res = evaluate_grid(
         policy, policy_name=ckpt.name, grid=grid, episodes=episodes, seed=seed, out_dir=out_dir, cfg=bench, progress=False
     )
     o = res.summary["overall"]
-    m = CHECKPOINT_RE.fullmatch(ckpt.name)
-    return Score(int(m.group(1)) if m else -1, 0, float(o["success_rate"]), int(o["successes"]), int(o["n"]))
+    return Score(iteration, env_steps, int(o["successes"]), int(o["n"]))
 
 
 def record(run_dir: Path, score: Score, ckpt: Path) -> bool:
@@ -87,7 +87,7 @@ def record(run_dir: Path, score: Score, ckpt: Path) -> bool:
         if new_file:
             w.writerow(FIELDS)
         w.writerow([score.iteration, score.env_steps, f"{score.success_rate:.4f}", score.successes, score.episodes])
-    is_best = previous is None or _rate(score) > _rate(previous)
+    is_best = previous is None or score.success_rate > previous.success_rate
     if is_best:
         tmp = run_dir / (BEST_FILE + ".tmp")
         shutil.copyfile(ckpt, tmp)

@@ -154,9 +154,10 @@ class RecoveryVecEnv(VecEnv):
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
-        in_tail = self.episode_length_buf > self.max_episode_length - self.window
-        self.tail_goal_steps += (out.in_goal & in_tail).long()
-        diverged = env.diverged.clone()
+        if self.curriculum:
+            in_tail = self.episode_length_buf > self.max_episode_length - self.window
+            self.tail_goal_steps += (out.in_goal & in_tail).long()
+        diverged = env.diverged
         left_tile = out.failed & ~diverged
         terminated = out.failed & diverged
         if not self.train_cfg.episode.off_tile_is_timeout:
@@ -194,8 +195,8 @@ class RecoveryVecEnv(VecEnv):
         goal set; demote those that spent none of it there or left the tile."""
         tail = self.tail_goal_steps[ids]
         up = (tail * 2 >= self.window) & ~left_tile
-        down = (tail == 0) | left_tile
-        step = up.long() - (down & ~up).long()
+        down = (tail == 0) | left_tile  # never together with up: up needs tail ≥ 1 on the tile
+        step = up.long() - down.long()
         self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)
 
     def close(self) -> None:
