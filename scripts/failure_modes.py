@@ -25,9 +25,9 @@ import torch
 import tyro
 
 from selfright.config import BenchmarkConfig
-from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import build_world
-from selfright.evaluate.runner import context_config, episode_seed
+from selfright.evaluate.runner import context_config, episode_seed, rollout_batch
 from selfright.policies.registry import make_policy
 from selfright.terrain import grid_cells
 
@@ -59,22 +59,15 @@ def main(a: Args) -> None:
             eps = list(range(b, min(b + env.num_envs, a.episodes)))
             ids = np.arange(len(eps))
             seeds = np.array([episode_seed(a.seed, cell, e) for e in eps], dtype=np.int64)
-            env.reset(ids, np.full(len(eps), k), [np.random.default_rng(s) for s in seeds])
-            policy.reset(ids, seeds)
-            success = np.zeros(len(eps), bool)
             ever_goal = np.zeros(len(eps), bool)
             failed = np.zeros(len(eps), bool)
-            active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
-            failed[~np.isin(ids, active)] = True
-            while len(active):
-                obs = env.observe(active, policy.groups)
-                with torch.no_grad():
-                    act = policy.act(obs, active, [cell.context] * len(active))
-                out = env.step(act, active)
+
+            def watch(active: np.ndarray, out: StepOutput) -> None:
                 ever_goal[active] |= out.in_goal.numpy()
-                success[active[out.succeeded.numpy()]] = True
                 failed[active[out.failed.numpy()]] = True
-                active = active[~out.done.numpy()]
+
+            success = rollout_batch(env, policy, np.full(len(eps), k), seeds, [cell.context] * len(eps), watch)
+            failed |= env.diverged[torch.from_numpy(ids)].numpy()
             # Slots keep their final state (and sensors) until the next reset: classify it.
             st = env.robot_state(ids)
             upright = ((st.roll.abs() <= tilt) & (st.pitch.abs() <= tilt)).numpy()

@@ -9,14 +9,14 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import torch
 from tqdm import tqdm
 
 from selfright.config import BenchmarkConfig, ContextConfig, to_dict
-from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
 from selfright.evaluate.metrics import summarize
 from selfright.evaluate.results import (
@@ -113,6 +113,30 @@ def evaluate_grid(
     return EvalResult(out_dir=out_dir, summary=summary, seconds=time.time() - t0, episodes_run=len(jobs))
 
 
+def rollout_batch(
+    env: RecoveryEnv, policy: Policy, cell_index: np.ndarray, seeds: np.ndarray, contexts: list[str],
+    on_step: Callable[[np.ndarray, StepOutput], None] | None = None,
+) -> np.ndarray:
+    """Reset env slots ``0..n-1`` to the falls of ``seeds`` on the worlds ``cell_index`` and run
+    ``policy`` until every episode is done; returns which episodes succeeded. ``on_step(active,
+    out)`` sees each control step's output for the slots still running (diagnostics)."""
+    ids = np.arange(len(seeds))
+    env.reset(ids, cell_index, [np.random.default_rng(s) for s in seeds])
+    policy.reset(ids, seeds)
+    success = np.zeros(len(seeds), dtype=bool)
+    active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
+    while len(active):
+        obs = env.observe(active, policy.groups)
+        with torch.no_grad():
+            actions = policy.act(obs, active, [contexts[i] for i in active])
+        out = env.step(actions, active)
+        if on_step is not None:
+            on_step(active, out)
+        success[active[out.succeeded.numpy()]] = True
+        active = active[~out.done.numpy()]
+    return success
+
+
 def _run_batch(
     env: RecoveryEnv, policy: Policy, batch: list[tuple[int, int]], cells: list[Cell], worlds: list[World],
     rough: list[float], seed: int,
@@ -120,18 +144,8 @@ def _run_batch(
     """Simulate one batch of episodes to completion; returns their rows."""
     ids = np.arange(len(batch))
     seeds = np.array([episode_seed(seed, cells[k], e) for k, e in batch], dtype=np.int64)
-    env.reset(ids, np.array([k for k, _ in batch]), [np.random.default_rng(s) for s in seeds])
-    policy.reset(ids, seeds)
     contexts = [cells[k].context for k, _ in batch]
-    success = np.zeros(len(batch), dtype=bool)
-    active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]
-    while len(active):
-        obs = env.observe(active, policy.groups)
-        with torch.no_grad():
-            actions = policy.act(obs, active, [contexts[i] for i in active])
-        out = env.step(actions, active)
-        success[active[out.succeeded.numpy()]] = True
-        active = active[~out.done.numpy()]
+    success = rollout_batch(env, policy, np.array([k for k, _ in batch]), seeds, contexts)
     m = env.metrics(ids)
     rows = []
     for i, (k, e) in enumerate(batch):
