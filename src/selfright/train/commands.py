@@ -44,6 +44,9 @@ class TrainArgs:
     """MuJoCo worker threads stepping the environments."""
     torch_threads: int = 1
     """Threads torch uses for the network updates."""
+    device: str = "cpu"
+    """Torch device of the networks and their updates (cpu, cuda, cuda:1); physics always
+    runs on the CPU (MuJoCo C), observations are moved to this device each step."""
     action_reference: Literal["stand", "current"] = "stand"
     """Joint targets = the standing pose (stand) or the current angles (current) + 0.5 rad ×
     action; recorded in the checkpoints (evaluate with the same --action-reference)."""
@@ -79,6 +82,7 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         init_from=args.init_from,
         physics_threads=args.physics_threads,
         torch_threads=args.torch_threads,
+        device=args.device,
         train=args.train,
         bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference)),
     )

@@ -57,6 +57,8 @@ class RunSpec:
     init_from: Path | None = None
     """Teacher weights to start a new teacher run from (a fine-tuning curriculum)."""
     torch_threads: int
+    device: str = "cpu"
+    """Torch device of the networks (physics stays on the CPU)."""
     train: TrainConfig = field(default_factory=TrainConfig)
     bench: BenchmarkConfig = field(default_factory=BenchmarkConfig)
     quiet: bool = False
@@ -142,6 +144,8 @@ class TrainingRun:
             raise ValueError("--role student needs --teacher RUN_DIR (a trained teacher run or checkpoint)")
         if s.teacher is not None and not s.teacher.exists():
             raise ValueError(f"teacher {s.teacher} not found; pass a teacher run folder or model_<it>.pt")
+        if s.device.startswith("cuda") and not torch.cuda.is_available():
+            raise ValueError(f"--device {s.device}: torch sees no CUDA device here; use --device cpu")
         has_ckpt = bool(list_checkpoints(self.out))
         if s.resume and not has_ckpt:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
@@ -176,12 +180,13 @@ class TrainingRun:
         worlds = make_training_worlds(s.context, s.bench, s.seed, s.train.episode)
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
         self.env = RecoveryVecEnv(
-            s.bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads
+            s.bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
+            device=s.device,
         )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
         runner_cls = OnPolicyRunner if s.role == "teacher" else DistillationRunner
         with contextlib.redirect_stdout(io.StringIO()):  # rsl_rl prints the model layouts
-            self.runner = runner_cls(self.env, self.cfg, log_dir=str(self.out), device="cpu")
+            self.runner = runner_cls(self.env, self.cfg, log_dir=str(self.out), device=s.device)
         r = self.runner
         r.logger = _HookLogger(
             log_dir=str(self.out), cfg=r.cfg, env_cfg=self.env.cfg, num_envs=self.env.num_envs,
@@ -242,7 +247,7 @@ class TrainingRun:
             "iterations_target": s.iterations,
             "env_steps": self.base_steps + (done_it - self.start_it) * self.steps_per_it,
             "wall_clock_s": round(self.base_wall + time.time() - self.t0, 1),
-            "device": _device_string(s.physics_threads, s.torch_threads),
+            "device": _device_string(s.physics_threads, s.torch_threads, s.device),
             "command_line": cmd,
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
             "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
@@ -396,9 +401,12 @@ def _recenter_constant_features(alg: Any, obs: Any, eps: float = 1e-3) -> list[i
     return moved
 
 
-def _device_string(physics_threads: int, torch_threads: int) -> str:
+def _device_string(physics_threads: int, torch_threads: int, device: str = "cpu") -> str:
     cpu = platform.processor() or platform.machine()
-    return f"cpu ({cpu}, {os.cpu_count()} cores; physics threads {physics_threads}, torch threads {torch_threads})"
+    text = f"cpu ({cpu}, {os.cpu_count()} cores; physics threads {physics_threads}, torch threads {torch_threads})"
+    if device != "cpu":
+        text += f"; networks on {device} ({torch.cuda.get_device_name(torch.device(device))})"
+    return text
 
 
 def _versions() -> dict[str, str]:

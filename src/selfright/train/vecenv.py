@@ -47,6 +47,8 @@ class RecoveryVecEnv(VecEnv):
         seed: seeds every episode (fall, world choice, randomisation) through one generator
             (an int or a tuple of ints, e.g. (run seed, start iteration)).
         threads: physics worker threads.
+        device: torch device the observations, rewards and dones are returned on (the
+            networks' device; the simulation and its bookkeeping stay on the CPU).
     """
 
     def __init__(
@@ -57,12 +59,13 @@ class RecoveryVecEnv(VecEnv):
         num_envs: int,
         seed: int | tuple[int, ...],
         threads: int = 1,
+        device: str = "cpu",
     ):
         self.env = RecoveryEnv(cfg, worlds, num_envs, threads=threads)
         self.train_cfg = train
         self.num_envs = num_envs
         self.num_actions = self.env.robot.num_joints
-        self.device = "cpu"
+        self.device = device
         self.cfg = {"benchmark": to_dict(cfg), "train": to_dict(train)}
         self.dt = self.env.control_dt
         self.max_episode_length = int(round(train.episode.episode_s / self.dt))
@@ -126,7 +129,7 @@ class RecoveryVecEnv(VecEnv):
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
         groups = self.env.observe()
-        return TensorDict(groups, batch_size=[self.num_envs])
+        return TensorDict(groups, batch_size=[self.num_envs]).to(self.device)
 
     def get_observations(self) -> TensorDict:
         """Observation groups ``student`` (n, 42) and ``teacher`` (n, 79) of the current states."""
@@ -187,8 +190,8 @@ class RecoveryVecEnv(VecEnv):
                 log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
             self._reset(done_ids.numpy())
         self._obs = self._observe()
-        extras = {"time_outs": time_out, "log": log}
-        return self._obs, reward, dones, extras
+        extras = {"time_outs": time_out.to(self.device), "log": log}
+        return self._obs, reward.to(self.device), dones.to(self.device), extras
 
     def _update_levels(self, ids: torch.Tensor, left_tile: torch.Tensor) -> None:
         """Promote slots whose finished episode spent at least half its final window in the
