@@ -15,7 +15,7 @@
 # Back here: tar xzf <run name>.tgz -C runs/ and resume (here or on the next lease).
 set -uo pipefail
 run=$1; role=$2; context=$3; shift 3
-export PYTHONUNBUFFERED=1 MUJOCO_GL=egl
+export PYTHONUNBUFFERED=1  # no MUJOCO_GL=egl: mujoco 4 then fails to import without an EGL driver
 mkdir -p "$run"
 start=()
 if ls "$run"/model_[0-9]*.pt > /dev/null 2>&1; then
