@@ -132,3 +132,13 @@ def test_incline_curriculum_levels_move_with_the_goal_window():
     env._update_levels(ids, torch.zeros(3, dtype=torch.bool))
     assert env.level.tolist() == [0, 0, 0]
     env.close()
+
+
+def test_networks_device_is_checked(tmp_path, monkeypatch):
+    """--device cuda on a machine without CUDA is a clear user error, raised before any work."""
+    from selfright.train.commands import TrainArgs, train
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    with pytest.raises(ValueError, match="no CUDA device"):
+        train(TrainArgs(out=tmp_path / "run", device="cuda", iterations=1))
+    assert not (tmp_path / "run").exists()
