@@ -1,0 +1,75 @@
+"""Training-env throughput and its scaling with physics threads, per training context.
+
+For each context and thread count: the time the fall protocol + 2 s settle takes per
+episode start (``reset_all``), and env steps/s of ``RecoveryVecEnv.step`` (random actions,
+rewards and observations included, no resets inside the timed window). Prints one JSON line
+per (context, threads) and, per context, ``scaling`` = steps/s at the most threads over
+steps/s at the fewest, with ``per_thread_efficiency`` = scaling / thread ratio (1.0 = linear).
+
+    python benchmarks/train_throughput.py [--envs 512] [--threads 1 2] [--steps 40]
+    python benchmarks/train_throughput.py --envs 1024 --threads 1 7 14   # on the GPU machine
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import torch
+
+from selfright.config import BenchmarkConfig
+from selfright.train.config import TrainConfig
+from selfright.train.contexts import make_training_worlds
+from selfright.train.vecenv import RecoveryVecEnv
+
+
+def measure(context: str, envs: int, threads: int, steps: int, seed: int = 0) -> dict:
+    """One (context, threads) measurement; the generator and actions are seeded."""
+    cfg, train = BenchmarkConfig(), TrainConfig()
+    worlds = make_training_worlds(context, cfg, seed, train.episode)
+    t0 = time.perf_counter()
+    env = RecoveryVecEnv(cfg, train, worlds, envs, seed=seed, threads=threads)  # resets every slot
+    reset_s = time.perf_counter() - t0
+    gen = torch.Generator().manual_seed(seed)
+    actions = [0.3 * torch.randn(envs, env.num_actions, generator=gen) for _ in range(steps)]
+    env.step(actions[0])  # warm-up
+    t0 = time.perf_counter()
+    for a in actions[1:]:
+        env.step(a)
+    dt = time.perf_counter() - t0
+    env.env.close()
+    return {
+        "context": context,
+        "envs": envs,
+        "threads": threads,
+        "reset_ms_per_episode": round(1e3 * reset_s / envs, 3),
+        "env_steps_per_s": round(envs * (steps - 1) / dt),
+    }
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--envs", type=int, default=512)
+    p.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    p.add_argument("--steps", type=int, default=40, help="timed control steps per measurement")
+    p.add_argument("--contexts", nargs="+", default=["flat", "rough", "incline"])
+    a = p.parse_args()
+    print(json.dumps({"cpus": os.cpu_count(), "torch_threads": torch.get_num_threads()}), flush=True)
+    for context in a.contexts:
+        rows = [measure(context, a.envs, k, a.steps) for k in sorted(set(a.threads))]
+        for r in rows:
+            print(json.dumps(r), flush=True)
+        lo, hi = rows[0], rows[-1]
+        scaling = hi["env_steps_per_s"] / lo["env_steps_per_s"]
+        print(json.dumps({
+            "context": context,
+            "scaling": round(scaling, 2),
+            "threads": [lo["threads"], hi["threads"]],
+            "per_thread_efficiency": round(scaling / (hi["threads"] / lo["threads"]), 2),
+        }), flush=True)
+
+
+if __name__ == "__main__":
+    main()
