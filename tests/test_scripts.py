@@ -31,3 +31,15 @@ def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
     counts = [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ") and "(was" not in line
               and not line.strip().startswith("low:")]
     assert sum(counts) == 4
+
+
+def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
+    import json
+
+    monkeypatch.setattr(sys, "argv", ["train_throughput.py", "--envs", "4", "--threads", "1", "2", "--steps", "3",
+                                      "--contexts", "flat"])
+    runpy.run_path(str(SCRIPTS.parent / "benchmarks" / "train_throughput.py"), run_name="__main__")
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r.get("threads") for r in rows[1:3]] == [1, 2]
+    assert all(r["env_steps_per_s"] > 0 and r["reset_ms_per_episode"] > 0 for r in rows[1:3])
+    assert rows[3]["context"] == "flat" and rows[3]["scaling"] > 0
