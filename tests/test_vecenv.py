@@ -142,3 +142,25 @@ def test_networks_device_is_checked(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="no CUDA device"):
         train(TrainArgs(out=tmp_path / "run", device="cuda", iterations=1))
     assert not (tmp_path / "run").exists()
+
+
+def test_failed_starts_are_replayed(flat_worlds):
+    """With replay 1.0 and no randomisation, episodes that end outside the goal set restart
+    from exactly their own fall-protocol draw; with replay 0 they do not."""
+    for share in (1.0, 0.0):
+        ep = EpisodeConfig(episode_s=0.1, replay_failed=share)  # 5 control steps: nobody gets up
+        train = dataclasses.replace(TrainConfig(), episode=ep, randomization=RandomizationConfig(enabled=False))
+        env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=3, seed=2)
+        first = env.env.state.copy()
+        with torch.inference_mode():
+            for _ in range(5):
+                _, _, dones, extras = env.step(torch.zeros(3, 12))
+        assert dones.all()
+        if share:
+            np.testing.assert_array_equal(env.env.state, first)
+            assert env.replayed.all() and float(extras["log"]["Episode/replayed_share"]) == 0.0
+            assert len(env.failed_starts) == 0  # all three were taken back out
+        else:
+            assert not np.allclose(env.env.state, first)
+            assert "Episode/replayed_share" not in extras["log"]
+        env.close()

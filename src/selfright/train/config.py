@@ -39,6 +39,13 @@ class EpisodeConfig:
     patch of an unbounded slope; the benchmark still counts leaving it as a failure."""
     terminate_on_success: bool = False
     """End the episode when the goal hold completes; off = keep holding until the time-out."""
+    replay_failed: float = 0.0
+    """Share of new training episodes that replay the start of a recent failed one (the same
+    fall-protocol draw on the same tile: position, orientation, joints; fresh randomisation
+    factors), 0 = off. Failed = less than half of the episode's last ``curriculum_window_s``
+    in the goal set. Every start is still a draw of the seed's fall protocol; replay only
+    re-weights them towards those the policy does not yet get up from (the rare postures of
+    the flat plateau). Up to ``num_envs`` failed starts are kept, oldest replayed first."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the

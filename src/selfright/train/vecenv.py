@@ -23,6 +23,9 @@ learns to keep standing.
 
 from __future__ import annotations
 
+import copy
+from collections import deque
+
 import numpy as np
 import torch
 from rsl_rl.env import VecEnv
@@ -89,6 +92,12 @@ class RecoveryVecEnv(VecEnv):
         self.window = max(1, int(round(ep.curriculum_window_s / self.dt)))
         self.tail_goal_steps = torch.zeros(num_envs, dtype=torch.long)
         """In-goal control steps within the final ``window`` steps of the current episode."""
+        self.replay_share = ep.replay_failed
+        self.track_tail = self.curriculum or self.replay_share > 0
+        self.failed_starts: deque[tuple[int, np.random.Generator]] = deque(maxlen=num_envs)
+        """(world, generator before the fall draw) of recent failed episodes, for replay."""
+        self.slot_start: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
+        self.replayed = torch.zeros(num_envs, dtype=torch.bool)
         self.reset_all()
 
     # ------------------------------------------------------------------ resets
@@ -109,6 +118,16 @@ class RecoveryVecEnv(VecEnv):
         else:
             world_idx = self.rng.integers(len(env.worlds), size=k)
         rngs = self.rng.spawn(k)
+        replayed = np.zeros(k, dtype=bool)
+        if self.replay_share > 0:
+            world_idx = np.array(world_idx)
+            for j in np.flatnonzero(self.rng.random(k) < self.replay_share):
+                if not self.failed_starts:
+                    break
+                world_idx[j], rngs[j] = self.failed_starts.popleft()
+                replayed[j] = True
+            for j, i in enumerate(ids):
+                self.slot_start[i] = (int(world_idx[j]), copy.deepcopy(rngs[j]))
         models = None
         if self.randomizer is not None:
             f = sample_factors(k, self.train_cfg.randomization, self.rng)
@@ -122,6 +141,7 @@ class RecoveryVecEnv(VecEnv):
             env.factors[t] = 1.0
         self.episode_length_buf[t] = 0
         self.tail_goal_steps[t] = 0
+        self.replayed[t] = torch.from_numpy(replayed)
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
             s[t] = 0.0
@@ -157,7 +177,7 @@ class RecoveryVecEnv(VecEnv):
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
-        if self.curriculum:
+        if self.track_tail:
             in_tail = self.episode_length_buf > self.max_episode_length - self.window
             self.tail_goal_steps += (out.in_goal & in_tail).long()
         diverged = env.diverged
@@ -188,10 +208,22 @@ class RecoveryVecEnv(VecEnv):
                 self._update_levels(done_ids, left_tile[done_ids])
                 log["Curriculum/mean_level"] = self.level.float().mean()
                 log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
+            if self.replay_share > 0:
+                self._keep_failed_starts(done_ids, diverged)
+                log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
+
+    def _keep_failed_starts(self, ids: torch.Tensor, diverged: torch.Tensor) -> None:
+        """Queue the starts of finished episodes that ended mostly outside the goal set
+        (diverged ones excluded: their start says nothing about the policy)."""
+        failed = (self.tail_goal_steps[ids] * 2 < self.window) & ~diverged[ids]
+        for i in ids[failed].tolist():
+            start = self.slot_start[i]
+            if start is not None:
+                self.failed_starts.append(start)
 
     def _update_levels(self, ids: torch.Tensor, left_tile: torch.Tensor) -> None:
         """Promote slots whose finished episode spent at least half its final window in the
