@@ -404,8 +404,10 @@ def _recenter_constant_features(alg: Any, obs: Any, eps: float = 1e-3) -> list[i
 def _device_string(physics_threads: int, torch_threads: int, device: str = "cpu") -> str:
     cpu = platform.processor() or platform.machine()
     text = f"cpu ({cpu}, {os.cpu_count()} cores; physics threads {physics_threads}, torch threads {torch_threads})"
-    if device != "cpu":
+    if device.startswith("cuda"):
         text += f"; networks on {device} ({torch.cuda.get_device_name(torch.device(device))})"
+    elif device != "cpu":
+        text += f"; networks on {device}"
     return text
 
 

@@ -219,18 +219,22 @@ class RecoveryVecEnv(VecEnv):
     def _keep_failed_starts(self, ids: torch.Tensor, diverged: torch.Tensor) -> None:
         """Queue the starts of finished episodes that ended mostly outside the goal set
         (diverged ones excluded: their start says nothing about the policy)."""
-        failed = (self.tail_goal_steps[ids] * 2 < self.window) & ~diverged[ids]
+        failed = ~self._ended_in_goal(ids) & ~diverged[ids]
         for i in ids[failed].tolist():
             start = self.slot_start[i]
             if start is not None:
                 self.failed_starts.append(start)
 
+    def _ended_in_goal(self, ids: torch.Tensor) -> torch.Tensor:
+        """Whether the finished episodes in slots ``ids`` spent at least half of their final
+        ``window`` steps in the goal set (what the curriculum and replay call success)."""
+        return self.tail_goal_steps[ids] * 2 >= self.window
+
     def _update_levels(self, ids: torch.Tensor, left_tile: torch.Tensor) -> None:
         """Promote slots whose finished episode spent at least half its final window in the
         goal set; demote those that spent none of it there or left the tile."""
-        tail = self.tail_goal_steps[ids]
-        up = (tail * 2 >= self.window) & ~left_tile
-        down = (tail == 0) | left_tile  # never together with up: up needs tail ≥ 1 on the tile
+        up = self._ended_in_goal(ids) & ~left_tile
+        down = (self.tail_goal_steps[ids] == 0) | left_tile  # never together with up: up needs tail ≥ 1 on the tile
         step = up.long() - down.long()
         self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)
 
