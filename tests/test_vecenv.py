@@ -164,3 +164,41 @@ def test_failed_starts_are_replayed(flat_worlds):
             assert not np.allclose(env.env.state, first)
             assert "Episode/replayed_share" not in extras["log"]
         env.close()
+
+
+@pytest.mark.parametrize("prepare", [True, False])
+def test_prepared_starts_settle_in_one_batch(flat_worlds, prepare):
+    """Staggered episode ends: with prepare_starts the first end settles the next start of
+    every slot in one call, and the later ends take theirs; without it each end settles alone.
+    Either way every new episode begins from a settled fall (time = settle_s)."""
+    ep = EpisodeConfig(episode_s=0.1, prepare_starts=prepare)  # 5 control steps
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=4, seed=3)
+    calls = []
+    settle = env.env.settle
+    env.env.settle = lambda w, r, m: calls.append(len(w)) or settle(w, r, m)
+    env.episode_length_buf[:] = torch.tensor([4, 3, 2, 1])  # slot k ends at step k + 1
+    with torch.inference_mode():
+        for k in range(4):
+            if prepare and k > 0:
+                expected = env.next_start.state[k].copy()
+            _, _, dones, _ = env.step(torch.zeros(4, 12))
+            assert dones.tolist() == [j == k for j in range(4)]
+            assert env.env.state[k, 0] == pytest.approx(CFG.fall.settle_s)
+            if prepare and k > 0:
+                np.testing.assert_array_equal(env.env.state[k], expected)  # the start prepared for it
+    assert calls == ([4] if prepare else [1, 1, 1, 1])
+    if prepare:
+        assert not env.next_start.ready.any()  # all four taken
+    env.close()
+
+
+def test_prepared_start_on_a_stale_curriculum_level_is_redrawn():
+    ep = EpisodeConfig(curriculum=True, incline_curriculum_deg=(5.0, 20.0), episode_s=0.1)
+    worlds = make_training_worlds("incline", CFG, 0, ep)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), worlds, num_envs=2, seed=0)
+    env._reset(np.array([0]))  # prepares both slots' next starts on level 0 and takes slot 0's
+    assert env.next_start.ready.tolist() == [False, True] and env.next_start.world[1] == 0
+    env.level[1] = 1  # promoted since
+    env._reset(np.array([1]))
+    assert env.env.world_idx.tolist() == [0, 1]
+    env.close()

@@ -28,6 +28,18 @@ EDGE_MARGIN_M = 0.5
 """An episode fails once the trunk is this close to the tile's edge (m)."""
 
 
+@dataclass(frozen=True)
+class SettledStarts:
+    """k falls after the 2 s passive settle, not yet in any slot."""
+
+    state: np.ndarray
+    """(k, S) state rows (time, qpos, qvel, ...; ``sim.batch.state_layout``)."""
+    sens: np.ndarray
+    """(k, nsensordata) sensor rows at the end of the settle."""
+    diverged: np.ndarray
+    """(k,) bool, the settle diverged (the row holds the finite pre-drop state)."""
+
+
 @dataclass
 class StepOutput:
     """Result of one control step for the stepped slots ``ids``."""
@@ -111,31 +123,46 @@ class RecoveryEnv:
             rngs: k generators, one per episode (all of its randomness comes from it).
             models: optional per-slot models (domain randomisation); default: the world's.
         """
-        ids = np.asarray(ids, dtype=np.int64)
         if len(ids) == 0:
             return
+        models = models if models is not None else [self.worlds[w].model for w in world_idx]
+        self.begin(ids, world_idx, models, self.settle(world_idx, rngs, models))
+
+    def settle(
+        self, world_idx: np.ndarray, rngs: list[np.random.Generator], models: list[mujoco.MjModel]
+    ) -> SettledStarts:
+        """Draw k falls (seed's protocol) and let them settle passively, in one batched rollout;
+        touches no slot. ``begin`` puts them into slots (now or later: training prepares
+        the next episodes' starts ahead, in large batches)."""
         fall, terrain = self.cfg.fall, self.cfg.terrain
         nq = self.sl.qpos_joints.stop - 1
-        init = np.zeros((len(ids), self.sl.size))
+        init = np.zeros((len(world_idx), self.sl.size))
         for k, (w, rng) in enumerate(zip(world_idx, rngs)):
             world = self.worlds[w]
-            qpos = initial_qpos(rng, self.robot, self.checker, world.tile, fall, terrain, world.fixed_spawn_y)
-            init[k, 1 : 1 + nq] = qpos
+            init[k, 1 : 1 + nq] = initial_qpos(rng, self.robot, self.checker, world.tile, fall, terrain, world.fixed_spawn_y)
+        hold = init[:, self.sl.qpos_joints]
+        states, sens = self.stepper.step(models, init, hold, self.settle_steps)
+        final = states[:, -1]
+        bad = ~np.isfinite(final).all(axis=1) | (np.abs(final[:, 0] - fall.settle_s) > 1e-6)
+        final[bad] = init[bad]  # keep a finite state; the episode is flagged diverged in begin
+        return SettledStarts(state=final, sens=sens[:, -1], diverged=bad)
+
+    def begin(
+        self, ids: np.ndarray, world_idx: np.ndarray, models: list[mujoco.MjModel], starts: SettledStarts
+    ) -> None:
+        """Start episodes in slots ``ids`` from settled falls (rows of ``starts`` aligned with
+        ``ids``), each on its world ``world_idx`` and model (the one it settled on)."""
+        ids = np.asarray(ids, dtype=np.int64)
         for k, i in enumerate(ids):
             self.world_idx[i] = world_idx[k]
-            self.models[i] = models[k] if models is not None else self.worlds[world_idx[k]].model
+            self.models[i] = models[k]
             self.friction[i] = float(self.worlds[world_idx[k]].context.friction)
-        hold = init[:, self.sl.qpos_joints]
-        states, sens = self.stepper.step([self.models[i] for i in ids], init, hold, self.settle_steps)
-        final = states[:, -1]
-        bad = ~np.isfinite(final).all(axis=1) | (np.abs(final[:, 0] - self.cfg.fall.settle_s) > 1e-6)
-        final[bad] = init[bad]  # keep a finite state; the episode is flagged diverged below
-        self.state[ids] = final
-        self.sens[ids] = sens[:, -1]
+        self.state[ids] = starts.state
+        self.sens[ids] = starts.sens
         self._last = None
         t = torch.from_numpy(ids)
-        self.diverged[t] = torch.from_numpy(bad)
-        self.start_xy[t] = torch.from_numpy(final[:, 1:3].copy())
+        self.diverged[t] = torch.from_numpy(starts.diverged)
+        self.start_xy[t] = torch.from_numpy(starts.state[:, 1:3].copy())
         self.prev_action[t] = 0.0
         self.step_count[t] = 0
         self.energy[t] = 0.0

@@ -37,6 +37,13 @@ class EpisodeConfig:
     teachers learned to do exactly that (28 of the shipped `incline` student's 44 failures in 64 episodes on
     ``--grid incline`` left the tile). The tile's edge is an artefact of simulating a finite
     patch of an unbounded slope; the benchmark still counts leaving it as a failure."""
+    prepare_starts: bool = True
+    """Draw and settle each slot's next episode start ahead of time, in one batched rollout
+    for every slot without one, instead of settling the 1–3 episodes that end at a control step
+    on their own (2 s of physics on 1–3 threads while the rest idle). Same fall protocol,
+    same distribution of starts; the random stream differs from ``False``. A slot's start
+    waits at most one episode: a curriculum level change since it was drawn discards it;
+    replayed falls join at the next batch."""
     terminate_on_success: bool = False
     """End the episode when the goal hold completes; off = keep holding until the time-out."""
     replay_failed: float = 0.0

@@ -34,6 +34,7 @@ from tensordict import TensorDict
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.randomization import ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv
+from selfright.train.starts import EpisodeDraw, PreparedStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
 from selfright.env.world import World
 from selfright.train.config import TrainConfig
@@ -98,27 +99,55 @@ class RecoveryVecEnv(VecEnv):
         """(world, generator before the fall draw) of recent failed episodes, for replay."""
         self.slot_start: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
         self.replayed = torch.zeros(num_envs, dtype=torch.bool)
+        self.prepare_starts = ep.prepare_starts
+        self.next_start = PreparedStarts(num_envs, self.env.sl.size, self.env.sens.shape[1])
+        """Each slot's settled next episode start, drawn ahead in batches (``prepare_starts``)."""
         self.reset_all()
 
     # ------------------------------------------------------------------ resets
     def reset_all(self) -> TensorDict:
-        """Start fresh episodes in every slot; returns the observations."""
-        self._reset(np.arange(self.num_envs))
+        """Start fresh episodes in every slot (prepared starts are dropped); returns the
+        observations."""
+        ids = np.arange(self.num_envs)
+        self.next_start.ready[:] = False
+        self._begin(ids, self._draw(ids))
         self._obs = self._observe()
         return self._obs
 
     def _reset(self, ids: np.ndarray) -> None:
-        """Fall protocol + settle in slots ``ids``, with freshly drawn worlds and factors."""
-        k = len(ids)
-        if k == 0:
+        """Start new episodes in slots ``ids`` (fall protocol + settle, fresh world and factors).
+
+        With ``EpisodeConfig.prepare_starts`` the settled falls come from ``next_start``: when a
+        finishing slot has none ready, the next start of *every* slot without one is drawn and
+        settled in one batched rollout (about one batch of ``num_envs`` per episode length,
+        instead of a 2 s rollout over the 1–3 slots that end at each control step, which
+        leaves most physics threads idle)."""
+        if len(ids) == 0:
             return
+        if not self.prepare_starts:
+            self._begin(ids, self._draw(ids))
+            return
+        t = torch.from_numpy(ids)
+        if self.curriculum:  # a prepared start on another level than the slot's is stale
+            stale = self.next_start.ready[ids] & (self.next_start.world[ids] != self.level[t].numpy())
+            self.next_start.ready[ids[stale]] = False
+        if not self.next_start.ready[ids].all():
+            todo = np.flatnonzero(~self.next_start.ready)
+            self.next_start.put(todo, self._draw(todo))
+        self._begin(ids, self.next_start.take(ids))
+
+    def _draw(self, slots: np.ndarray) -> EpisodeDraw:
+        """Draw and settle the next episodes of ``slots``: world (curriculum level or uniform),
+        fall (or a replayed failed one), randomisation factors."""
+        k = len(slots)
         env = self.env
         if self.curriculum:
-            world_idx = self.level[torch.from_numpy(ids)].numpy()
+            world_idx = self.level[torch.from_numpy(slots)].numpy().copy()
         else:
             world_idx = self.rng.integers(len(env.worlds), size=k)
         rngs = self.rng.spawn(k)
         replayed = np.zeros(k, dtype=bool)
+        origins: list[tuple[int, np.random.Generator] | None] = [None] * k
         if self.replay_share > 0:
             world_idx = np.array(world_idx)
             for j in np.flatnonzero(self.rng.random(k) < self.replay_share):
@@ -126,22 +155,30 @@ class RecoveryVecEnv(VecEnv):
                     break
                 world_idx[j], rngs[j] = self.failed_starts.popleft()
                 replayed[j] = True
-            for j, i in enumerate(ids):
-                self.slot_start[i] = (int(world_idx[j]), copy.deepcopy(rngs[j]))
-        models = None
+            origins = [(int(w), copy.deepcopy(r)) for w, r in zip(world_idx, rngs)]
         if self.randomizer is not None:
             f = sample_factors(k, self.train_cfg.randomization, self.rng)
             models = self.randomizer.models([env.worlds[w].model for w in world_idx], f)
-        env.reset(ids, world_idx, rngs, models)
-        t = torch.from_numpy(ids)
-        if self.randomizer is not None:
-            env.factors[t] = f.as_tensor()
-            env.friction[t] = torch.from_numpy(f.friction).float()
+            factors, friction = f.as_tensor(), torch.from_numpy(f.friction).float()
         else:
-            env.factors[t] = 1.0
+            models = [env.worlds[w].model for w in world_idx]
+            factors = torch.ones(k, 3)
+            friction = torch.tensor([float(env.worlds[w].context.friction) for w in world_idx])
+        settled = env.settle(world_idx, rngs, models)
+        return EpisodeDraw(world_idx, models, factors, friction, replayed, origins, settled)
+
+    def _begin(self, ids: np.ndarray, draw: EpisodeDraw) -> None:
+        """Put drawn starts into slots ``ids`` and clear the slots' episode bookkeeping."""
+        env = self.env
+        env.begin(ids, draw.world_idx, draw.models, draw.settled)
+        t = torch.from_numpy(ids)
+        env.factors[t] = draw.factors
+        env.friction[t] = draw.friction
+        for j, i in enumerate(ids):
+            self.slot_start[i] = draw.origins[j]
         self.episode_length_buf[t] = 0
         self.tail_goal_steps[t] = 0
-        self.replayed[t] = torch.from_numpy(replayed)
+        self.replayed[t] = torch.from_numpy(draw.replayed)
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
             s[t] = 0.0
