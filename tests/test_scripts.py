@@ -37,9 +37,13 @@ def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
     import json
 
     monkeypatch.setattr(sys, "argv", ["train_throughput.py", "--envs", "4", "--threads", "1", "2", "--steps", "3",
-                                      "--contexts", "flat"])
+                                      "--contexts", "flat", "--loop-context", "flat", "--loop-envs", "4"])
     runpy.run_path(str(SCRIPTS.parent / "benchmarks" / "train_throughput.py"), run_name="__main__")
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [r.get("threads") for r in rows[1:3]] == [1, 2]
     assert all(r["env_steps_per_s"] > 0 and r["reset_ms_per_episode"] > 0 for r in rows[1:3])
     assert rows[3]["context"] == "flat" and rows[3]["scaling"] > 0
+    loops = [r for r in rows if "loop" in r]
+    assert [(r["threads"], r.get("prepare_starts")) for r in loops] == [
+        (1, False), (1, True), (1, None), (2, False), (2, True), (2, None)]
+    assert all(r["speedup"] > 0 for r in loops if "speedup" in r)
