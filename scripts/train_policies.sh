@@ -10,7 +10,9 @@
 # does nothing. The iteration targets are those of the shipped checkpoints (a run with
 # --iterations N ends with model_<N-1>.pt, the checkpoint the next stage reads). Physics is
 # multi-threaded and episodes are redrawn on resume, so a rerun reproduces the recipe, not
-# the bits. Runs started side by side take one physics thread each.
+# the bits (nor do runs since EpisodeConfig.prepare_starts, on by default, settles episode
+# starts in batches: same distribution, another random stream). Runs started side by side
+# take one physics thread each.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:?usage: train_policies.sh flat-teacher|context-teachers|students|ship}
@@ -57,10 +59,14 @@ case $stage in
     wait
     ;;
   students)
-    for c in flat rough incline; do
+    for c in flat rough; do
       run "runs/${c}_student" --role student --context "$c" --teacher "runs/${c}_teacher" --physics-threads 1 \
         --iterations 600 $(has_ckpt "runs/${c}_student" && echo --resume) &
     done
+    # The shipped incline student was distilled with 4x the batch (on the GPU machine's cores,
+    # where it took 5 min; its card has the command); its iteration 145 ships.
+    ENVS=512 run runs/incline_student --role student --context incline --teacher runs/incline_teacher \
+      --physics-threads 1 --iterations 146 $(has_ckpt runs/incline_student && echo --resume) &
     wait
     ;;
   ship)

@@ -58,6 +58,7 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     assert r.start_it == 1 and list_checkpoints(out)[-1][0] == 1
     meta = json.loads((out / "train_meta.json").read_text())
     assert meta["iterations_done"] == 2 and meta["env_steps"] == 2 * 4 * 8 and len(meta["command_lines"]) == 2
+    assert meta["command_start_iterations"] == [0, 1]
 
     student = tmp_path / "student"
     r = run(spec(student, role="student", teacher=out))
@@ -91,6 +92,8 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     ship(ShipArgs(run=out / "model_0.pt", name="flat-teacher", evaluation=tmp_path / "eval", dest=dest, notes=notes))
     card = (dest / "flat-teacher.md").read_text()
     assert "32 (1 iterations" in card and "teacher" in card
+    commands = card.split("```bash\n")[1].split("```")[0].strip().splitlines()
+    assert len(commands) == 1  # model_0 came from the first invocation alone, not the resumed one
     assert card.rstrip().endswith("## Notes\n\nChosen on validation seeds 1-3.")
     data = torch.load(out / "model_0.pt", weights_only=True)
     del data["infos"]["env_steps"]

@@ -250,6 +250,7 @@ class TrainingRun:
             "device": _device_string(s.physics_threads, s.torch_threads, s.device),
             "command_line": cmd,
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
+            "command_start_iterations": [*self.prev_meta.get("command_start_iterations", []), self.start_it],
             "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
             "init_from": str(self.init_ckpt) if self.init_ckpt else self.prev_meta.get("init_from"),
             "latest_checkpoint": str(checkpoint) if checkpoint else None,

@@ -76,7 +76,11 @@ def checkpoint_meta(run: Path) -> dict[str, Any]:
     if not all(k in infos for k in progress):
         raise ValueError(f"{ckpt} does not record its env steps and wall-clock (an older checkpoint); "
                          f"ship the run folder (its latest checkpoint) instead")
-    return {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
+    out = {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
+    cmds, starts = meta.get("command_lines") or [], meta.get("command_start_iterations") or []
+    if cmds and len(starts) == len(cmds):  # only the invocations that led to this checkpoint
+        out["command_lines"] = [c for c, s in zip(cmds, starts) if s < int(infos["iterations_done"])]
+    return out
 
 
 def _budget(label: str, checkpoint: str | None) -> str:
