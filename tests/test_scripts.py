@@ -47,3 +47,17 @@ def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
     assert [(r["threads"], r.get("prepare_starts")) for r in loops] == [
         (1, False), (1, True), (1, None), (2, False), (2, True), (2, None)]
     assert all(r["speedup"] > 0 for r in loops if "speedup" in r)
+
+
+@pytest.mark.slow
+def test_mjx_throughput_benchmark_runs_where_jax_is_installed(monkeypatch, capsys):
+    """The MJX planning benchmark (optional deps: jax, mujoco-mjx; ~2 min of compiling on CPU)."""
+    import json
+
+    pytest.importorskip("jax")
+    pytest.importorskip("mujoco.mjx")
+    monkeypatch.setattr(sys, "argv", ["mjx_throughput.py", "--envs", "2", "--steps", "1", "--threads", "1"])
+    runpy.run_path(str(SCRIPTS.parent / "benchmarks" / "mjx_throughput.py"), run_name="__main__")
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
+    assert rows[1]["context"] == "flat" and rows[1]["mjx_nonfinite_envs"] == 0
+    assert rows[1]["mjx_physics_steps_per_s"] > 0 and rows[1]["mean_abs_dz_m"] < 0.05
