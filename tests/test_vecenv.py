@@ -186,6 +186,13 @@ def test_prepared_starts_settle_in_one_batch(flat_worlds, prepare):
             assert env.env.state[k, 0] == pytest.approx(CFG.fall.settle_s)
             if prepare and k > 0:
                 np.testing.assert_array_equal(env.env.state[k], expected)  # the start prepared for it
+            # The episode runs on the randomised model its start settled on (rebuilt from the
+            # kept factors) and the teacher observes those factors.
+            g = flat_worlds[0].model.geom(TERRAIN_GEOM).id
+            assert env.env.models[k].geom_friction[g, 0] == pytest.approx(float(env.env.friction[k]), rel=1e-6)
+            trunk = flat_worlds[0].model.body("trunk").id
+            ratio = env.env.models[k].body_mass[trunk] / flat_worlds[0].model.body_mass[trunk]
+            assert ratio == pytest.approx(float(env.env.factors[k, 0]), rel=1e-6)
     assert calls == ([4] if prepare else [1, 1, 1, 1])
     if prepare:
         assert not env.next_start.ready.any()  # all four taken

@@ -33,6 +33,14 @@ class EpisodeFactors:
     kd_scale: np.ndarray
     """Multiplier of the PD damping."""
 
+    def as_array(self) -> np.ndarray:
+        """(k, 4) float64: friction, mass, Kp, Kd scales (``from_array`` inverts it exactly)."""
+        return np.stack([self.friction, self.mass_scale, self.kp_scale, self.kd_scale], axis=1)
+
+    @staticmethod
+    def from_array(a: np.ndarray) -> EpisodeFactors:
+        return EpisodeFactors(friction=a[:, 0], mass_scale=a[:, 1], kp_scale=a[:, 2], kd_scale=a[:, 3])
+
     def as_tensor(self) -> torch.Tensor:
         """(k, 3) mass, Kp, Kd scales, the column order of ``RecoveryEnv.factors``."""
         return torch.from_numpy(np.stack([self.mass_scale, self.kp_scale, self.kd_scale], axis=1)).float()

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-import torch
 
+from selfright.env.randomization import EpisodeFactors
 from selfright.env.recovery_env import SettledStarts
 
 
@@ -19,12 +19,11 @@ class EpisodeDraw:
 
     world_idx: np.ndarray
     """(k,) world (tile) of each episode."""
-    models: list[mujoco.MjModel]
-    """k models the episodes run on (randomised copies or the worlds' own)."""
-    factors: torch.Tensor
-    """(k, 3) mass, Kp, Kd scales (ones without randomisation)."""
-    friction: torch.Tensor
-    """(k,) ground friction the teacher observes."""
+    factors: EpisodeFactors | None
+    """Domain-randomisation factors of the episodes (None: randomisation off)."""
+    models: list[mujoco.MjModel] | None
+    """k models the episodes run on (randomised copies or the worlds' own); None = rebuild them
+    from ``world_idx`` and ``factors`` (prepared starts do not keep a ~0.5 MB model copy each)."""
     replayed: np.ndarray
     """(k,) bool, the fall replays a recent failed episode's draw."""
     origins: list[tuple[int, np.random.Generator] | None]
@@ -34,14 +33,14 @@ class EpisodeDraw:
 
 
 class PreparedStarts:
-    """One settled next start per slot (or none: ``ready`` false)."""
+    """One settled next start per slot (or none: ``ready`` false). Keeps the randomisation
+    factors, not the models: ``take`` hands out draws whose models are to be rebuilt."""
 
     def __init__(self, num_envs: int, state_size: int, sensor_size: int):
         self.ready = np.zeros(num_envs, dtype=bool)
         self.world = np.zeros(num_envs, dtype=np.int64)
-        self.models: list[mujoco.MjModel | None] = [None] * num_envs
-        self.factors = torch.ones(num_envs, 3)
-        self.friction = torch.ones(num_envs)
+        self.randomized = False
+        self.factors = np.ones((num_envs, 4))
         self.replayed = np.zeros(num_envs, dtype=bool)
         self.origins: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
         self.state = np.zeros((num_envs, state_size))
@@ -50,16 +49,15 @@ class PreparedStarts:
 
     def put(self, slots: np.ndarray, draw: EpisodeDraw) -> None:
         """Keep ``draw``'s rows as the next starts of ``slots``."""
-        t = torch.from_numpy(slots)
         self.world[slots] = draw.world_idx
-        self.factors[t] = draw.factors
-        self.friction[t] = draw.friction
+        self.randomized = draw.factors is not None
+        if draw.factors is not None:
+            self.factors[slots] = draw.factors.as_array()
         self.replayed[slots] = draw.replayed
         self.state[slots] = draw.settled.state
         self.sens[slots] = draw.settled.sens
         self.diverged[slots] = draw.settled.diverged
         for j, i in enumerate(slots):
-            self.models[i] = draw.models[j]
             self.origins[i] = draw.origins[j]
         self.ready[slots] = True
 
@@ -67,13 +65,10 @@ class PreparedStarts:
         """Hand out the (ready) next starts of ``slots`` and mark them used."""
         if not self.ready[slots].all():
             raise RuntimeError("a slot has no prepared start")
-        t = torch.from_numpy(slots)
-        models = [self.models[i] for i in slots]
         draw = EpisodeDraw(
             world_idx=self.world[slots].copy(),
-            models=models,  # type: ignore[arg-type]
-            factors=self.factors[t].clone(),
-            friction=self.friction[t].clone(),
+            factors=EpisodeFactors.from_array(self.factors[slots].copy()) if self.randomized else None,
+            models=None,
             replayed=self.replayed[slots].copy(),
             origins=[self.origins[i] for i in slots],
             settled=SettledStarts(
@@ -82,6 +77,5 @@ class PreparedStarts:
         )
         self.ready[slots] = False
         for i in slots:
-            self.models[i] = None
             self.origins[i] = None
         return draw

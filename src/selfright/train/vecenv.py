@@ -26,13 +26,14 @@ from __future__ import annotations
 import copy
 from collections import deque
 
+import mujoco
 import numpy as np
 import torch
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.randomization import ModelRandomizer, sample_factors
+from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv
 from selfright.train.starts import EpisodeDraw, PreparedStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
@@ -156,24 +157,27 @@ class RecoveryVecEnv(VecEnv):
                 world_idx[j], rngs[j] = self.failed_starts.popleft()
                 replayed[j] = True
             origins = [(int(w), copy.deepcopy(r)) for w, r in zip(world_idx, rngs)]
-        if self.randomizer is not None:
-            f = sample_factors(k, self.train_cfg.randomization, self.rng)
-            models = self.randomizer.models([env.worlds[w].model for w in world_idx], f)
-            factors, friction = f.as_tensor(), torch.from_numpy(f.friction).float()
-        else:
-            models = [env.worlds[w].model for w in world_idx]
-            factors = torch.ones(k, 3)
-            friction = torch.tensor([float(env.worlds[w].context.friction) for w in world_idx])
+        f = sample_factors(k, self.train_cfg.randomization, self.rng) if self.randomizer is not None else None
+        models = self._models(world_idx, f)
         settled = env.settle(world_idx, rngs, models)
-        return EpisodeDraw(world_idx, models, factors, friction, replayed, origins, settled)
+        return EpisodeDraw(world_idx, f, models, replayed, origins, settled)
+
+    def _models(self, world_idx: np.ndarray, f: EpisodeFactors | None) -> list[mujoco.MjModel]:
+        """The episodes' models: randomised copies of their worlds' models, or those models."""
+        bases = [self.env.worlds[w].model for w in world_idx]
+        return bases if f is None else self.randomizer.models(bases, f)
 
     def _begin(self, ids: np.ndarray, draw: EpisodeDraw) -> None:
         """Put drawn starts into slots ``ids`` and clear the slots' episode bookkeeping."""
         env = self.env
-        env.begin(ids, draw.world_idx, draw.models, draw.settled)
+        models = draw.models if draw.models is not None else self._models(draw.world_idx, draw.factors)
+        env.begin(ids, draw.world_idx, models, draw.settled)  # also sets the worlds' friction
         t = torch.from_numpy(ids)
-        env.factors[t] = draw.factors
-        env.friction[t] = draw.friction
+        if draw.factors is not None:
+            env.factors[t] = draw.factors.as_tensor()
+            env.friction[t] = torch.from_numpy(draw.factors.friction).float()
+        else:
+            env.factors[t] = 1.0
         for j, i in enumerate(ids):
             self.slot_start[i] = draw.origins[j]
         self.episode_length_buf[t] = 0
