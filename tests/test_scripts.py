@@ -61,3 +61,17 @@ def test_mjx_throughput_benchmark_runs_where_jax_is_installed(monkeypatch, capsy
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
     assert rows[1]["context"] == "flat" and rows[1]["mjx_nonfinite_envs"] == 0
     assert rows[1]["mjx_physics_steps_per_s"] > 0 and rows[1]["mean_abs_dz_m"] < 0.05
+
+
+def test_reward_terms_averages_each_window(tmp_path, monkeypatch, capsys):
+    from torch.utils.tensorboard import SummaryWriter
+
+    w = SummaryWriter(str(tmp_path))
+    for it in range(10):
+        w.add_scalar("Episode_Reward/feet_contact", float(it), it)
+        w.add_scalar("Metrics/in_goal", 1.0 if it < 5 else 0.0, it)
+        w.add_scalar("Loss/value", 123.0, it)  # not a reward term: left out
+    w.close()
+    run_script("reward_terms.py", ["--run", str(tmp_path), "--windows", "0", "5", "5", "10"], monkeypatch)
+    rows = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in capsys.readouterr().out.splitlines()[1:]}
+    assert rows == {"feet_contact": [2.0, 7.0], "Metrics/in_goal": [1.0, 0.0]}
