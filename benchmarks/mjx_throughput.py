@@ -58,7 +58,7 @@ def run_cpu(model, state, ctrls, substeps: int, threads: int) -> tuple[float, np
     return dt, s
 
 
-def run_mjx(model, state, sl, ctrls, substeps: int) -> tuple[float, float, np.ndarray]:
+def run_mjx(model, state, ctrls, substeps: int) -> tuple[float, float, np.ndarray]:
     import jax
     import jax.numpy as jnp
     from mujoco import mjx
@@ -107,7 +107,7 @@ def main() -> None:
             hold = state[:, sl.qpos_joints]
             ctrls = [hold + 0.3 * rng.standard_normal(hold.shape) for _ in range(WARMUP + a.steps)]
             cpu_s, cpu_final = run_cpu(model, state, ctrls, substeps, a.threads)
-            mjx_s, compile_s, mjx_qpos = run_mjx(model, state, sl, ctrls, substeps)
+            mjx_s, compile_s, mjx_qpos = run_mjx(model, state, ctrls, substeps)
             phys = n * a.steps * substeps
             finite = np.isfinite(mjx_qpos).all(axis=1)
             dz = np.abs(mjx_qpos[finite, 2] - cpu_final[finite, sl.pos][:, 2])

@@ -32,11 +32,17 @@ from selfright.train.contexts import make_training_worlds
 from selfright.train.vecenv import RecoveryVecEnv
 
 
+def make_env(context: str, envs: int, threads: int, seed: int, prepare_starts: bool = True) -> RecoveryVecEnv:
+    """The training env of ``context`` with default configs (every slot already reset)."""
+    cfg, train = BenchmarkConfig(), TrainConfig()
+    train = dataclasses.replace(train, episode=dataclasses.replace(train.episode, prepare_starts=prepare_starts))
+    worlds = make_training_worlds(context, cfg, seed, train.episode)
+    return RecoveryVecEnv(cfg, train, worlds, envs, seed=seed, threads=threads)
+
+
 def measure(context: str, envs: int, threads: int, steps: int, seed: int = 0) -> dict:
     """One (context, threads) measurement; the generator and actions are seeded."""
-    cfg, train = BenchmarkConfig(), TrainConfig()
-    worlds = make_training_worlds(context, cfg, seed, train.episode)
-    env = RecoveryVecEnv(cfg, train, worlds, envs, seed=seed, threads=threads)
+    env = make_env(context, envs, threads, seed)
     t0 = time.perf_counter()
     env.reset_all()  # a fresh fall + settle in every slot, without the env's construction
     reset_s = time.perf_counter() - t0
@@ -59,10 +65,7 @@ def measure(context: str, envs: int, threads: int, steps: int, seed: int = 0) ->
 
 def measure_loop(context: str, envs: int, threads: int, prepare: bool, seed: int = 0) -> dict:
     """Env steps/s over one episode length with auto-resets, as in training."""
-    cfg, train = BenchmarkConfig(), TrainConfig()
-    train = dataclasses.replace(train, episode=dataclasses.replace(train.episode, prepare_starts=prepare))
-    worlds = make_training_worlds(context, cfg, seed, train.episode)
-    env = RecoveryVecEnv(cfg, train, worlds, envs, seed=seed, threads=threads)
+    env = make_env(context, envs, threads, seed, prepare_starts=prepare)
     gen = torch.Generator().manual_seed(seed)
     env.episode_length_buf = torch.randint(0, env.max_episode_length, (envs,), generator=gen)
     for _ in range(2):  # warm-up; the first finished episode triggers the first batch (prepare on)

@@ -34,8 +34,8 @@ class EpisodeConfig:
     as a terminal state. A robot lying on the ground earns a negative reward per step under
     Table I (height, collision and orientation terms), so a terminal state worth 0 pays it to
     end the episode: on the 20° incline, where rolling 3 m downhill off the tile is easy, the
-    teachers learned to do exactly that (28 of the shipped `incline` student's 44 failures in 64 episodes on
-    ``--grid incline`` left the tile). The tile's edge is an artefact of simulating a finite
+    teachers learned to do exactly that (28 of the 44 failures in 64 episodes on ``--grid incline``
+    of the `incline` student shipped until 2026-11-23 left the tile). The tile's edge is an artefact of simulating a finite
     patch of an unbounded slope; the benchmark still counts leaving it as a failure."""
     prepare_starts: bool = True
     """Draw and settle each slot's next episode start ahead of time, in one batched rollout

@@ -35,10 +35,10 @@ from tensordict import TensorDict
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv
-from selfright.train.starts import EpisodeDraw, PreparedStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
 from selfright.env.world import World
 from selfright.train.config import TrainConfig
+from selfright.train.starts import EpisodeDraw, PreparedStarts
 
 
 class RecoveryVecEnv(VecEnv):
