@@ -74,6 +74,47 @@ def privileged_obs(
     )
 
 
+# ------------------------------------------------------------------ left-right mirror
+# Mirroring the world in the trunk's sagittal (x-z) plane negates the y component of polar
+# vectors (gravity, velocities, directions) and the x and z components of axial ones
+# (angular velocity).
+_POLAR = np.array([1.0, -1.0, 1.0])
+_AXIAL = np.array([-1.0, 1.0, -1.0])
+
+
+def student_mirror(joints: np.ndarray, signs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index ``p`` and signs ``s``, each (9 + 3J,): ``obs[..., p] * s`` is the student
+    observation of the robot's mirror image, given the joints' mirror (``RobotSpec.mirror_joints``
+    / ``mirror_signs``, each (J,))."""
+    nj = len(joints)
+    idx = [np.arange(3), 3 + np.arange(3)] + [6 + b * nj + joints for b in range(3)]
+    sgn = [_POLAR, _AXIAL] + [signs] * 3
+    return np.concatenate(idx), np.concatenate(sgn)
+
+
+def privileged_mirror() -> tuple[np.ndarray, np.ndarray]:
+    """Index and signs, each (12 + S,), of the privileged block's mirror (see ``student_mirror``):
+    slope angle, friction, height and the mass/gain factors keep their values, the body-frame
+    uphill direction and velocity flip y, and the height scan flips its y axis."""
+    i, j = np.meshgrid(np.arange(SCAN_GRID), np.arange(SCAN_GRID), indexing="ij")
+    scan = (i * SCAN_GRID + (SCAN_GRID - 1 - j)).ravel()  # scan_offsets: row-major, x then y
+    blocks = [  # (indices within the block, signs), in privileged_obs's order
+        (np.arange(1), np.ones(1)),  # slope angle
+        (np.arange(3), _POLAR),  # uphill direction, body frame
+        (np.arange(1), np.ones(1)),  # friction
+        (np.arange(3), _POLAR),  # linear velocity, body frame
+        (np.arange(1), np.ones(1)),  # height
+        (scan, np.ones(len(scan))),  # height scan
+        (np.arange(3), np.ones(3)),  # mass, Kp, Kd factors
+    ]
+    idx, sgn, start = [], [], 0
+    for local, sign in blocks:
+        idx.append(start + local)
+        sgn.append(sign)
+        start += len(local)
+    return np.concatenate(idx), np.concatenate(sgn)
+
+
 def num_scan_points() -> int:
     return SCAN_GRID * SCAN_GRID
 

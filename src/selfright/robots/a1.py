@@ -88,6 +88,13 @@ def _per_leg(values: tuple[float, float, float]) -> np.ndarray:
     return np.array(values * len(LEGS), dtype=np.float64)
 
 
+def _mirror_joints() -> np.ndarray:
+    """Joint indices of the left-right mirror image: each leg swaps with the leg on the other
+    side (FR <-> FL, RR <-> RL), joint by joint."""
+    other = {leg: next(o for o in LEGS if _SIGN[o] == (_SIGN[leg][0], -_SIGN[leg][1])) for leg in LEGS}
+    return np.array([3 * LEGS.index(other[leg]) + j for leg in LEGS for j in range(3)])
+
+
 A1 = RobotSpec(
     name="a1",
     trunk_body="trunk",
@@ -105,4 +112,9 @@ A1 = RobotSpec(
     body_length_m=0.5,
     torque_limit=TORQUE_LIMIT,
     mjcf=a1_mjcf,
+    # The abduction joint turns about x, so mirroring y flips its angle; hip and knee turn
+    # about y and keep theirs. The model is mirror-symmetric up to the trunk's 4 mm COM offset
+    # and its products of inertia (published values, kept).
+    mirror_joints=_mirror_joints(),
+    mirror_signs=_per_leg((-1.0, 1.0, 1.0)),
 )

@@ -48,6 +48,12 @@ class RobotSpec:
     """Motor torque limit (N·m)."""
     mjcf: Callable[[float, float], str]
     """``mjcf(kp, kd)`` -> MJCF text of the robot alone (a ``<mujoco>`` document)."""
+    mirror_joints: np.ndarray | None = None
+    """Left-right mirror of the joints, (num_joints,) ints: joint ``j`` of the robot's mirror
+    image in its sagittal (x-z) plane is joint ``mirror_joints[j]`` of the robot, with sign
+    ``mirror_signs[j]`` (angles, velocities and targets alike). None: not mirror-symmetric."""
+    mirror_signs: np.ndarray | None = None
+    """(num_joints,) ±1 that go with ``mirror_joints`` (−1 for joints about the x or z axis)."""
 
     @property
     def num_joints(self) -> int:

@@ -120,6 +120,12 @@ class PPOConfig:
     """Target KL divergence per update for the adaptive schedule (nats)."""
     max_grad_norm: float = 1.0
     """Gradient-norm clip (dimensionless)."""
+    symmetry_augmentation: bool = False
+    """Append the left-right mirror image of every transition to each minibatch (rsl_rl's
+    ``Symmetry`` extension with ``selfright.train.symmetry``); the reward is untouched."""
+    mirror_loss_coef: float = 0.0
+    """Weight of rsl_rl's mirror loss (MSE between the policy's action on mirrored
+    observations and its mirrored action); 0 = off."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -208,6 +214,7 @@ class TrainConfig:
                     "schedule": p.schedule,
                     "desired_kl": p.desired_kl,
                     "use_clipped_value_loss": True,
+                    "symmetry_cfg": _symmetry_cfg(p),
                 },
             }
         d = self.distillation
@@ -228,6 +235,18 @@ class TrainConfig:
                 "loss_type": d.loss_type,
             },
         }
+
+
+def _symmetry_cfg(p: PPOConfig) -> dict[str, Any] | None:
+    """rsl_rl's ``symmetry_cfg`` (None when neither augmentation nor mirror loss is on)."""
+    if not p.symmetry_augmentation and p.mirror_loss_coef == 0.0:
+        return None
+    return {
+        "data_augmentation_func": "selfright.train.symmetry:augment_left_right",
+        "use_data_augmentation": p.symmetry_augmentation,
+        "use_mirror_loss": p.mirror_loss_coef > 0.0,
+        "mirror_loss_coeff": p.mirror_loss_coef,
+    }
 
 
 def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:
