@@ -120,3 +120,16 @@ def test_ppo_config_enables_rsl_rl_symmetry():
     on = TrainConfig(ppo=PPOConfig(symmetry_augmentation=True, mirror_loss_coef=0.5)).to_rsl_rl("teacher")
     cfg = on["algorithm"]["symmetry_cfg"]
     assert cfg["use_data_augmentation"] and cfg["use_mirror_loss"] and cfg["mirror_loss_coeff"] == 0.5
+
+
+def test_warns_when_augmenting_from_weights_trained_without_it(capsys):
+    from pathlib import Path
+
+    from selfright.train.runner import _warn_symmetry_on_init
+
+    sym = TrainConfig(ppo=PPOConfig(symmetry_augmentation=True))
+    _warn_symmetry_on_init(sym, {"train_config": {"ppo": {"symmetry_augmentation": False}}}, Path("a/model_1.pt"))
+    assert "warning" in capsys.readouterr().out
+    _warn_symmetry_on_init(sym, {"train_config": {"ppo": {"symmetry_augmentation": True}}}, Path("a/model_1.pt"))
+    _warn_symmetry_on_init(TrainConfig(), {}, Path("a/model_1.pt"))
+    assert capsys.readouterr().out == ""

@@ -44,7 +44,7 @@ def scan_points(rs: RobotState) -> np.ndarray:
 
 
 def student_obs(rs: RobotState, nominal: torch.Tensor, prev_action: torch.Tensor) -> torch.Tensor:
-    """(n, 9 + 3J) sensor-only observation."""
+    """(n, 6 + 3J) sensor-only observation."""
     return torch.cat(
         [rs.projected_gravity, rs.ang_vel, rs.q - nominal, rs.qd * JOINT_VEL_SCALE, prev_action], dim=-1
     )
@@ -83,7 +83,7 @@ _AXIAL = np.array([-1.0, 1.0, -1.0])
 
 
 def student_mirror(joints: np.ndarray, signs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Index ``p`` and signs ``s``, each (9 + 3J,): ``obs[..., p] * s`` is the student
+    """Index ``p`` and signs ``s``, each (6 + 3J,): ``obs[..., p] * s`` is the student
     observation of the robot's mirror image, given the joints' mirror (``RobotSpec.mirror_joints``
     / ``mirror_signs``, each (J,))."""
     nj = len(joints)

@@ -235,7 +235,7 @@ class RecoveryEnv:
 
     # ---------------------------------------------------------- observations
     def observe(self, ids: np.ndarray | None = None, groups: tuple[str, ...] = ("student", "teacher")) -> dict[str, torch.Tensor]:
-        """Observation groups ``student`` (k, 9 + 3J) and ``teacher`` (k, 21 + 3J + S) for slots
+        """Observation groups ``student`` (k, 6 + 3J) and ``teacher`` (k, 18 + 3J + S) for slots
         ``ids``; only the ``groups`` asked for are computed (the teacher's scan costs time)."""
         ids = np.arange(self.num_envs) if ids is None else np.asarray(ids, dtype=np.int64)
         t = torch.from_numpy(ids)
