@@ -75,3 +75,20 @@ def test_reward_terms_averages_each_window(tmp_path, monkeypatch, capsys):
     run_script("reward_terms.py", ["--run", str(tmp_path), "--windows", "0", "5", "5", "10"], monkeypatch)
     rows = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in capsys.readouterr().out.splitlines()[1:]}
     assert rows == {"feet_contact": [2.0, 7.0], "Metrics/in_goal": [1.0, 0.0]}
+
+
+def test_mirror_asymmetry_separates_symmetric_from_random(monkeypatch, capsys):
+    """A joint-space P controller is its own mirror image (0); a random policy's action on the
+    mirrored observation is an independent draw, so its gap is twice the action power (~2)."""
+    import torch
+
+    from selfright.policies.base import CallablePolicy
+
+    probe_cls = runpy.run_path(str(SCRIPTS / "mirror_asymmetry.py"))["_MirrorProbe"]
+    probe = probe_cls(CallablePolicy(lambda o: -o[:, 6:18]), "a1")  # a = −(q − nominal)
+    obs = torch.randn(8, 42, generator=torch.Generator().manual_seed(0))
+    probe.act({"student": obs}, None, [None] * 8)
+    assert probe.gap < 1e-9 * probe.power
+    run_script("mirror_asymmetry.py", ["--policy", "random", "--grid", "flat", "--episodes", "2"], monkeypatch)
+    value = float(capsys.readouterr().out.split("asymmetry ")[1].split()[0])
+    assert 1.5 < value < 2.5

@@ -1,0 +1,85 @@
+"""How far from left-right symmetric is a policy? Replays a grid evaluation's episodes (same
+seeds, same falls as ``selfright evaluate``) and, at every control step, compares the
+policy's action on the mirrored observations with the mirror of its action:
+
+    asymmetry = mean ‖π(M o) − M π(o)‖²  /  mean ‖π(o)‖²
+
+0 for a mirror-symmetric policy; about 1 when the mirrored action is as far off as the action
+is large (e.g. a policy that always rolls to the same side). ``--train.ppo.symmetry-augmentation``
+assumes a symmetric policy (docs/training.md, *Left-right symmetry*). The policy is asked
+twice per step, so this is for memoryless policies (trained MLPs), not ``zero``/``open-loop``.
+
+    python scripts/mirror_asymmetry.py --policy flat-teacher --grid flat --episodes 64
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import tyro
+
+from selfright.config import BenchmarkConfig
+from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.world import build_world
+from selfright.evaluate.runner import context_config, episode_seed, rollout_batch
+from selfright.policies.base import Policy
+from selfright.policies.registry import make_policy
+from selfright.terrain import grid_cells
+from selfright.train.symmetry import group_mirrors, mirror
+
+
+@dataclass(frozen=True)
+class Args:
+    policy: str = "flat-teacher"
+    """Policy name, file or run folder (as for ``selfright evaluate``)."""
+    grid: str = "flat"
+    """Named grid."""
+    episodes: int = 64
+    """Episodes per cell."""
+    seed: int = 0
+    """Run seed (same episodes as ``selfright evaluate --seed``)."""
+
+
+class _MirrorProbe(Policy):
+    """Acts as ``inner`` and accumulates ‖π(M o) − M π(o)‖² and ‖π(o)‖² over the steps."""
+
+    def __init__(self, inner: Policy, robot_name: str):
+        self.inner, self.groups, self.action_mapping = inner, inner.groups, inner.action_mapping
+        self.maps = group_mirrors(robot_name)
+        self.gap = self.power = 0.0
+
+    def reset(self, ids, seeds=None):
+        self.inner.reset(ids, seeds)
+
+    def act(self, obs, ids, contexts):
+        a = self.inner.act(obs, ids, contexts)
+        mirrored = self.inner.act({k: mirror(v, *self.maps[k]) for k, v in obs.items()}, ids, contexts)
+        self.gap += float((mirrored - mirror(a, *self.maps["actions"])).square().sum())
+        self.power += float(a.square().sum())
+        return a
+
+
+def main(a: Args) -> None:
+    cfg = BenchmarkConfig()
+    probe = _MirrorProbe(make_policy(a.policy, cfg), cfg.robot.name)
+    cells = grid_cells(a.grid, cfg.terrain)
+    worlds = [build_world(c, cfg, context_config(cfg), a.seed) for c in cells]
+    env = RecoveryEnv(cfg, worlds, min(64, a.episodes))
+    for k, cell in enumerate(cells):
+        probe.gap = probe.power = 0.0
+        for b in range(0, a.episodes, env.num_envs):
+            eps = np.arange(b, min(b + env.num_envs, a.episodes))
+            seeds = np.array([episode_seed(a.seed, cell, int(e)) for e in eps], dtype=np.int64)
+            with torch.no_grad():
+                rollout_batch(env, probe, np.full(len(eps), k), seeds, [cell.context] * len(eps))
+        print(
+            f"cell slope {cell.slope_pct:g} %, roughness level {cell.roughness_level}: "
+            f"asymmetry {probe.gap / max(probe.power, 1e-12):.3f} ({a.episodes} episodes)"
+        )
+    env.close()
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))
