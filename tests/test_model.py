@@ -1,3 +1,5 @@
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
@@ -90,3 +92,19 @@ def test_stand_height_is_inside_the_goal_set(world):
     qpos = np.concatenate([[0, 0, ROBOT.stand_height_m + 0.02, 1, 0, 0, 0], ROBOT.stand_pose])
     d, _ = _run(world, qpos, ROBOT.stand_pose, 600)
     assert abs(d.qpos[2] - ROBOT.stand_height_m) < 0.02
+
+
+def test_tall_pose_stands_higher_than_the_stand_pose(world):
+    """``--action-reference tall``: action 0 holds straighter legs, settling above the stand
+    pose and still on four feet; ``reference_pose`` maps each reference to its pose."""
+    heights = []
+    for pose in (ROBOT.stand_pose, ROBOT.tall_pose):
+        qpos = np.concatenate([[0, 0, 0.40, 1, 0, 0, 0], pose])
+        d, _ = _run(world, qpos, pose, 600)
+        heights.append(d.qpos[2])
+    assert heights[1] > heights[0] + 0.015 and heights[1] < ROBOT.leg_length_m
+    np.testing.assert_array_equal(ROBOT.reference_pose("tall"), ROBOT.tall_pose)
+    np.testing.assert_array_equal(ROBOT.reference_pose("stand"), ROBOT.stand_pose)
+    assert ROBOT.reference_pose("current") is None
+    with pytest.raises(ValueError, match="no 'tall' pose"):
+        dataclasses.replace(ROBOT, tall_pose=None).reference_pose("tall")

@@ -44,7 +44,7 @@ class Evaluate:
     """Seconds the goal set must be held for success."""
     episode_s: float = 10.0
     """Episode limit after settling (s)."""
-    action_reference: Literal["stand", "current"] = "stand"
+    action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
     plots: bool = True
     """Write the heatmaps and histograms."""

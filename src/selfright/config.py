@@ -87,11 +87,12 @@ class ActionConfig:
     """How policy actions become PD joint targets: target = reference + scale · action,
     clipped to the joint range."""
 
-    reference: Literal["stand", "current"] = "stand"
+    reference: Literal["stand", "current", "tall"] = "stand"
     """``stand``: the robot's standing pose (action 0 = stand, as in legged_gym-style
     controllers); ``current``: the joint angles at the start of the control step (MuJoCo
-    Playground's Go1 get-up). The seed does not say; the shipped policies use ``stand``
-    (docs/training.md: what was measured and why the comparison is not yet clean)."""
+    Playground's Go1 get-up); ``tall``: a standing pose with straighter legs
+    (``RobotSpec.tall_pose``). The seed does not say; the shipped policies use ``stand``
+    (docs/training.md: what was measured and why)."""
     scale_rad: float = 0.5
     """Radians of joint target per unit action."""
     clip: float = 10.0

@@ -86,7 +86,8 @@ class RecoveryEnv:
         self.episode_steps = int(round(cfg.goal.episode_s / self.control_dt))
         self.settle_steps = int(round(cfg.fall.settle_s / cfg.sim.timestep_s))
         self.nominal = torch.tensor(self.robot.nominal_pose, dtype=torch.float32)
-        self._stand = np.asarray(self.robot.stand_pose, dtype=np.float64)
+        self._ref_pose = self.robot.reference_pose(cfg.action.reference)
+        """(J,) joint angles of action 0, or None (``current``: the angles at each step)."""
         self._low = self.robot.joint_low
         self._high = self.robot.joint_high
         nj = self.robot.num_joints
@@ -184,7 +185,7 @@ class RecoveryEnv:
     def _targets(self, state: np.ndarray, clipped: torch.Tensor) -> np.ndarray:
         """PD joint targets (k, J): reference + scale · clipped action, within joint limits
         (reference: the standing pose or the current angles, ``ActionConfig.reference``)."""
-        ref = state[:, self.sl.qpos_joints] if self.cfg.action.reference == "current" else self._stand
+        ref = state[:, self.sl.qpos_joints] if self._ref_pose is None else self._ref_pose
         return np.clip(ref + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
 
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:

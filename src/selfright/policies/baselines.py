@@ -30,11 +30,12 @@ class _TargetPolicy(Policy):
     def __init__(self, robot: RobotSpec, action: ActionConfig):
         self.robot = robot
         self.action = action
-        self._stand = torch.as_tensor(robot.stand_pose, dtype=torch.float32)
+        pose = robot.reference_pose(action.reference)
+        self._ref = None if pose is None else torch.as_tensor(pose, dtype=torch.float32)
 
     def to_action(self, target: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
         """Action whose PD target is ``target`` (k, J) given current angles ``q`` (k, J)."""
-        ref = q if self.action.reference == "current" else self._stand
+        ref = q if self._ref is None else self._ref
         return (target - ref) / self.action.scale_rad
 
 

@@ -105,6 +105,9 @@ A1 = RobotSpec(
     joint_high=_per_leg((_ABD_RANGE[1], _HIP_RANGE[1], _KNEE_RANGE[1])),
     nominal_pose=_per_leg((0.0, 0.9, -1.8)),
     stand_pose=_per_leg((0.0, 0.6, -1.2)),
+    # Feet under the hips with straighter legs: 2 × 0.2 m × cos 0.5 + 0.02 m = 0.37 m, 5 cm
+    # above the goal bar (the knee's upper limit is −0.92 rad).
+    tall_pose=_per_leg((0.0, 0.5, -1.0)),
     leg_length_m=0.4,
     # Hip axis to foot centre in the stand pose, 2 × 0.2 m × cos 0.6, plus the 0.02 m foot
     # radius: 0.35 m (it settles at 0.336 m under PD sag at Kp 50), 3 cm above the 0.32 m bar.

@@ -48,6 +48,9 @@ class RobotSpec:
     """Motor torque limit (N·m)."""
     mjcf: Callable[[float, float], str]
     """``mjcf(kp, kd)`` -> MJCF text of the robot alone (a ``<mujoco>`` document)."""
+    tall_pose: np.ndarray | None = None
+    """Standing joint angles with straighter legs than ``stand_pose`` (rad), the action
+    reference of ``ActionConfig.reference="tall"``; None: the robot has none."""
     mirror_joints: np.ndarray | None = None
     """Left-right mirror of the joints, (num_joints,) ints: joint ``j`` of the robot's mirror
     image in its sagittal (x-z) plane is joint ``mirror_joints[j]`` of the robot, with sign
@@ -58,3 +61,13 @@ class RobotSpec:
     @property
     def num_joints(self) -> int:
         return len(self.joint_names)
+
+    def reference_pose(self, reference: str) -> np.ndarray | None:
+        """(num_joints,) joint angles that action 0 means under ``ActionConfig.reference``
+        (``stand`` or ``tall``); None for ``current`` (the angles at each control step)."""
+        if reference == "current":
+            return None
+        pose = {"stand": self.stand_pose, "tall": self.tall_pose}.get(reference)
+        if pose is None:
+            raise ValueError(f"robot {self.name!r} has no {reference!r} pose; use --action-reference stand or current")
+        return pose

@@ -47,9 +47,10 @@ class TrainArgs:
     device: str = "cpu"
     """Torch device of the networks and their updates (cpu, cuda, cuda:1); physics always
     runs on the CPU (MuJoCo C), observations are moved to this device each step."""
-    action_reference: Literal["stand", "current"] = "stand"
-    """Joint targets = the standing pose (stand) or the current angles (current) + 0.5 rad ×
-    action; recorded in the checkpoints (evaluate with the same --action-reference)."""
+    action_reference: Literal["stand", "current", "tall"] = "stand"
+    """Joint targets = the standing pose (stand), a taller standing pose (tall) or the current
+    angles (current) + 0.5 rad × action; recorded in the checkpoints (evaluate with the same
+    --action-reference)."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
