@@ -50,6 +50,12 @@ def student_obs(rs: RobotState, nominal: torch.Tensor, prev_action: torch.Tensor
     )
 
 
+def prev_action_columns(num_joints: int) -> slice:
+    """Columns of the previous action in the student observation (and in the teacher's, which
+    starts with it)."""
+    return slice(6 + 2 * num_joints, 6 + 3 * num_joints)
+
+
 def privileged_obs(
     rs: RobotState, slope_pct: torch.Tensor, friction: torch.Tensor, scan_z: torch.Tensor, factors: torch.Tensor
 ) -> torch.Tensor:

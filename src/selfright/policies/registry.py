@@ -7,6 +7,7 @@ from pathlib import Path
 from selfright.config import ActionConfig, BenchmarkConfig
 from selfright.policies.base import Policy
 from selfright.policies.baselines import OpenLoopPolicy, RandomPolicy, ZeroPolicy
+from selfright.policies.reference import ShiftedReference
 from selfright.robots import get_robot
 
 BASELINES = ("zero", "random", "open-loop")
@@ -25,28 +26,37 @@ def available_policies() -> list[str]:
     return list(BASELINES) + shipped + extra
 
 
-def check_action_mapping(policy: Policy, action: ActionConfig, name: str) -> Policy:
-    """``policy`` if its recorded action mapping (``action_mapping``: reference, scale) is the
-    one ``action`` applies, or unknown; ``ValueError`` otherwise (its actions would mean other
-    joint targets than the ones it learned)."""
-    for sub in getattr(policy, "policies", {}).values():  # a multiplexer: check each policy
-        check_action_mapping(sub, action, name)
+def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_name: str = "a1") -> Policy:
+    """``policy`` ready for the env's action mapping ``action``: itself if its recorded mapping
+    (``action_mapping``: reference, scale) is that one or unknown; converted
+    (``ShiftedReference``) if both references are fixed poses (``stand``/``tall``) at the same
+    scale; ``ValueError`` otherwise (its actions would mean other joint targets than the ones
+    it learned)."""
+    subs = getattr(policy, "policies", None)
+    if subs is not None:  # a multiplexer: each policy on its own
+        for key, sub in subs.items():
+            subs[key] = check_action_mapping(sub, action, name, robot_name)
     mapping = policy.action_mapping
     if mapping is None:
         return policy
     ref, scale = mapping
-    if ref != action.reference or (scale and abs(scale - action.scale_rad) > 1e-9):
-        raise ValueError(
-            f"policy {name!r} was trained with joint targets = {ref} + {scale} rad × action, but this run maps "
-            f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with "
-            f"--action-reference {ref} (API: BenchmarkConfig(action=ActionConfig(reference={ref!r})))"
-        )
-    return policy
+    same_scale = not scale or abs(scale - action.scale_rad) <= 1e-9
+    if ref == action.reference and same_scale:
+        return policy
+    if same_scale and "current" not in (ref, action.reference):
+        robot = get_robot(robot_name)
+        offset = (robot.reference_pose(ref) - robot.reference_pose(action.reference)) / action.scale_rad
+        return ShiftedReference(policy, offset, (action.reference, action.scale_rad))
+    raise ValueError(
+        f"policy {name!r} was trained with joint targets = {ref} + {scale} rad × action, but this run maps "
+        f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with "
+        f"--action-reference {ref} (API: BenchmarkConfig(action=ActionConfig(reference={ref!r})))"
+    )
 
 
 def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
     """``_make_policy`` followed by ``check_action_mapping``."""
-    return check_action_mapping(_make_policy(name, cfg), cfg.action, name)
+    return check_action_mapping(_make_policy(name, cfg), cfg.action, name, cfg.robot.name)
 
 
 def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:

@@ -1,0 +1,55 @@
+"""Running a policy under another fixed action reference than the one it was trained with.
+
+Joint targets are ``pose + scale · action`` (``ActionConfig``). A policy trained around pose A
+acts identically in an env that maps actions around pose B once its actions are shifted by
+(A − B) / scale and the previous action it observes is shifted back by the same amount (except
+on an episode's first step, where the env reports "no previous action" as 0 in any units). So
+``stand`` and ``tall`` policies (and a multiplexer holding both) run in either env, and the
+benchmark's action mapping need not change with the policy. ``current`` (targets relative to
+the angles at each step) is no fixed pose and cannot be converted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from selfright.env.observations import prev_action_columns
+from selfright.policies.base import Policy
+
+
+class ShiftedReference(Policy):
+    """``inner`` (trained around pose A) in an env whose action 0 is pose B.
+
+    Args:
+        inner: the policy.
+        offset: (J,) (A − B) / scale, in action units.
+    """
+
+    def __init__(self, inner: Policy, offset: np.ndarray, env_mapping: tuple[str, float]):
+        self.inner = inner
+        self.name = inner.name
+        self.groups = inner.groups
+        self.action_mapping = env_mapping
+        self.offset = torch.as_tensor(offset, dtype=torch.float32)
+        self.prev_cols = prev_action_columns(len(offset))
+        self.fresh: set[int] = set()
+        """Slots whose episode has not taken a step yet."""
+
+    def reset(self, ids, seeds=None):
+        self.fresh.update(np.asarray(ids).tolist())
+        self.inner.reset(ids, seeds)
+
+    @torch.no_grad()
+    def act(self, obs, ids, contexts):
+        ids = np.asarray(ids).tolist()
+        took = torch.tensor([i not in self.fresh for i in ids])
+        self.fresh.difference_update(ids)
+        shifted = {}
+        for group, x in obs.items():
+            x = x.clone()
+            shift = self.offset.to(x.device, x.dtype) * took.to(x.device, x.dtype)[:, None]
+            x[:, self.prev_cols] -= shift  # the action it took, in its own units
+            shifted[group] = x
+        a = self.inner.act(shifted, ids, contexts)
+        return a + self.offset.to(a.device, a.dtype)
