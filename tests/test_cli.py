@@ -93,3 +93,13 @@ def test_action_reference_must_match_the_policy(tmp_path, capsys):
     code, cap = run_cli(["evaluate", "--policy", "flat", "--grid", "tiny", "--episodes", "1", "--action-reference", "current",
                          "--out", str(tmp_path / "o")], capsys)
     assert_clean_error(code, cap, "--action-reference stand")
+
+
+def test_student_must_use_its_teachers_action_reference(tmp_path, capsys):
+    from pathlib import Path
+
+    teacher = Path(__file__).resolve().parent.parent / "runs" / "flat_teacher_best"  # committed, a stand-reference run
+    code, cap = run_cli(["train", "--role", "student", "--context", "flat", "--teacher", str(teacher),
+                         "--out", str(tmp_path / "s"), "--envs", "2", "--iterations", "1", "--action-reference", "tall"],
+                        capsys)
+    assert_clean_error(code, cap, "--action-reference stand")

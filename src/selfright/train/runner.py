@@ -190,6 +190,12 @@ class TrainingRun:
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
             if teacher_meta.get("context") not in (None, s.context):
                 print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
+            teacher_ref = (teacher_meta.get("policy") or {}).get("action_reference", "stand")
+            if teacher_ref != s.bench.action.reference:
+                raise ValueError(
+                    f"the teacher was trained with --action-reference {teacher_ref}; distil with the same "
+                    f"(its action labels mean joint targets around that reference)"
+                )
         self.teacher_policy = teacher_policy
 
         start_it = self._saved_iteration(self.resume_ckpt) + 1 if self.resume_ckpt else 0
