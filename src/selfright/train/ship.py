@@ -105,6 +105,7 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
     teacher = meta.get("teacher")
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
+    pol = meta.get("policy") or {}
     lines = [
         f"# Model card: `{name}`",
         "",
@@ -115,6 +116,8 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
         + _budget("its teacher", teacher)
         + _budget("before that, its initialisation", meta.get("init_from")),
+        f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
+        f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
         f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
