@@ -57,5 +57,7 @@ def test_sr_routes_each_context_to_its_policy():
 
 
 @pytest.mark.parametrize("name", SHIPPED)
-def test_shipped_policy_records_stand_relative_actions(name: str):
-    assert load_policy_file(CHECKPOINT_DIR / f"{name}.pt").action_mapping == ("stand", 0.5)
+def test_shipped_policy_records_a_fixed_pose_reference(name: str):
+    """Every shipped policy maps actions around a standing pose (``stand`` or ``tall``), which
+    the benchmark's default ``stand`` mapping converts exactly (tests/test_reference.py)."""
+    assert load_policy_file(CHECKPOINT_DIR / f"{name}.pt").action_mapping in {("stand", 0.5), ("tall", 0.5)}

@@ -36,6 +36,13 @@ class ShiftedReference(Policy):
         self.fresh: set[int] = set()
         """Slots whose episode has not taken a step yet."""
 
+    def __getattr__(self, item: str):
+        """Everything else (``group``, the network, ...) is the inner policy's."""
+        inner = self.__dict__.get("inner")
+        if inner is None:
+            raise AttributeError(item)
+        return getattr(inner, item)
+
     def reset(self, ids, seeds=None):
         self.fresh.update(np.asarray(ids).tolist())
         self.inner.reset(ids, seeds)
