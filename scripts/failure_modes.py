@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -26,39 +25,21 @@ import tyro
 
 from selfright.config import BenchmarkConfig
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
-from selfright.env.world import build_world
-from selfright.evaluate.runner import context_config, episode_seed, rollout_batch
+from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.registry import make_policy
-from selfright.terrain import grid_cells
 
 
-@dataclass(frozen=True)
-class Args:
-    policy: str = "flat"
-    """Policy name, file or run folder (as for ``selfright evaluate``)."""
-    grid: str = "flat"
-    """Named grid."""
-    episodes: int = 64
-    """Episodes per cell."""
-    seed: int = 0
-    """Run seed (same episodes as ``selfright evaluate --seed``)."""
-
-
-def main(a: Args) -> None:
+def main(a: ReplayArgs) -> None:
     cfg = BenchmarkConfig()
     policy = make_policy(a.policy, cfg)
-    cells = grid_cells(a.grid, cfg.terrain)
-    worlds = [build_world(c, cfg, context_config(cfg), a.seed) for c in cells]
-    env = RecoveryEnv(cfg, worlds, min(64, a.episodes))
+    env, cells = replay_env(a, cfg)
     bar = cfg.goal.height_fraction * env.robot.leg_length_m
     tilt = math.radians(cfg.goal.max_tilt_deg)
     for k, cell in enumerate(cells):
         classes: Counter[str] = Counter()
         low_h: list[tuple[float, float]] = []
-        for b in range(0, a.episodes, env.num_envs):
-            eps = list(range(b, min(b + env.num_envs, a.episodes)))
+        for eps, seeds in replay_batches(a, cell, env.num_envs):
             ids = np.arange(len(eps))
-            seeds = np.array([episode_seed(a.seed, cell, e) for e in eps], dtype=np.int64)
             ever_goal = np.zeros(len(eps), bool)
             failed = np.zeros(len(eps), bool)
 
@@ -119,4 +100,4 @@ def _feet_xy(env: RecoveryEnv, ids: np.ndarray) -> np.ndarray:
 
 
 if __name__ == "__main__":
-    main(tyro.cli(Args))
+    main(tyro.cli(ReplayArgs))

@@ -14,32 +14,15 @@ twice per step, so this is for memoryless policies (trained MLPs), not ``zero``/
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import torch
 import tyro
 
 from selfright.config import BenchmarkConfig
-from selfright.env.recovery_env import RecoveryEnv
-from selfright.env.world import build_world
-from selfright.evaluate.runner import context_config, episode_seed, rollout_batch
+from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
-from selfright.terrain import grid_cells
 from selfright.train.symmetry import group_mirrors, mirror
-
-
-@dataclass(frozen=True)
-class Args:
-    policy: str = "flat-teacher"
-    """Policy name, file or run folder (as for ``selfright evaluate``)."""
-    grid: str = "flat"
-    """Named grid."""
-    episodes: int = 64
-    """Episodes per cell."""
-    seed: int = 0
-    """Run seed (same episodes as ``selfright evaluate --seed``)."""
 
 
 class _MirrorProbe(Policy):
@@ -61,17 +44,13 @@ class _MirrorProbe(Policy):
         return a
 
 
-def main(a: Args) -> None:
+def main(a: ReplayArgs) -> None:
     cfg = BenchmarkConfig()
     probe = _MirrorProbe(make_policy(a.policy, cfg), cfg.robot.name)
-    cells = grid_cells(a.grid, cfg.terrain)
-    worlds = [build_world(c, cfg, context_config(cfg), a.seed) for c in cells]
-    env = RecoveryEnv(cfg, worlds, min(64, a.episodes))
+    env, cells = replay_env(a, cfg)
     for k, cell in enumerate(cells):
         probe.gap = probe.power = 0.0
-        for b in range(0, a.episodes, env.num_envs):
-            eps = np.arange(b, min(b + env.num_envs, a.episodes))
-            seeds = np.array([episode_seed(a.seed, cell, int(e)) for e in eps], dtype=np.int64)
+        for eps, seeds in replay_batches(a, cell, env.num_envs):
             with torch.no_grad():
                 rollout_batch(env, probe, np.full(len(eps), k), seeds, [cell.context] * len(eps))
         print(
@@ -82,4 +61,4 @@ def main(a: Args) -> None:
 
 
 if __name__ == "__main__":
-    main(tyro.cli(Args))
+    main(tyro.cli(ReplayArgs))

@@ -137,6 +137,34 @@ def rollout_batch(
     return success
 
 
+@dataclass(frozen=True)
+class ReplayArgs:
+    """Which benchmark episodes a diagnostic script replays (the falls of ``selfright evaluate``)."""
+
+    policy: str = "flat"
+    """Policy name, file or run folder (as for ``selfright evaluate``)."""
+    grid: str = "flat"
+    """Named grid."""
+    episodes: int = 64
+    """Episodes per cell."""
+    seed: int = 0
+    """Run seed (same episodes as ``selfright evaluate --seed``)."""
+
+
+def replay_env(a: ReplayArgs, cfg: BenchmarkConfig) -> tuple[RecoveryEnv, list[Cell]]:
+    """An env over the cells of ``a.grid`` (worlds built as the evaluator builds them)."""
+    cells = grid_cells(a.grid, cfg.terrain)
+    worlds = [build_world(c, cfg, context_config(cfg), a.seed) for c in cells]
+    return RecoveryEnv(cfg, worlds, min(64, a.episodes)), cells
+
+
+def replay_batches(a: ReplayArgs, cell: Cell, batch: int):
+    """Yields (episode indices (k,), their seeds (k,)) of one cell, ``batch`` episodes at a time."""
+    for b in range(0, a.episodes, batch):
+        eps = np.arange(b, min(b + batch, a.episodes))
+        yield eps, np.array([episode_seed(a.seed, cell, int(e)) for e in eps], dtype=np.int64)
+
+
 def _run_batch(
     env: RecoveryEnv, policy: Policy, batch: list[tuple[int, int]], cells: list[Cell], worlds: list[World],
     rough: list[float], seed: int,
