@@ -184,7 +184,8 @@ class RecoveryEnv:
 
     def _targets(self, state: np.ndarray, clipped: torch.Tensor) -> np.ndarray:
         """PD joint targets (k, J): reference + scale · clipped action, within joint limits
-        (reference: the standing pose or the current angles, ``ActionConfig.reference``)."""
+        (reference: the pose of ``ActionConfig.reference``, ``RobotSpec.reference_pose``, or for
+        ``current`` the angles at the start of the step)."""
         ref = state[:, self.sl.qpos_joints] if self._ref_pose is None else self._ref_pose
         return np.clip(ref + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
 

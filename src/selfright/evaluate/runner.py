@@ -9,7 +9,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import torch
@@ -158,7 +158,7 @@ def replay_env(a: ReplayArgs, cfg: BenchmarkConfig) -> tuple[RecoveryEnv, list[C
     return RecoveryEnv(cfg, worlds, min(64, a.episodes)), cells
 
 
-def replay_batches(a: ReplayArgs, cell: Cell, batch: int):
+def replay_batches(a: ReplayArgs, cell: Cell, batch: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Yields (episode indices (k,), their seeds (k,)) of one cell, ``batch`` episodes at a time."""
     for b in range(0, a.episodes, batch):
         eps = np.arange(b, min(b + batch, a.episodes))

@@ -223,10 +223,10 @@ class TrainingRun:
             r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.init_from is not None:
             init = latest_checkpoint(s.init_from)
-            teacher_policy_config(init, s.train.policy)  # refuses student runs
+            _, init_meta = teacher_policy_config(init, s.train.policy)  # refuses student runs
             r.load(str(init), load_cfg={"actor": True, "critic": True})
             self.init_ckpt = init
-            _warn_symmetry_on_init(s.train, read_meta(init.parent), init)
+            _warn_symmetry_on_init(s.train, init_meta, init)
             if s.train.recenter_on_init:
                 moved = _recenter_constant_features(r.alg, self.env.get_observations())
                 if moved and not s.quiet:

@@ -20,6 +20,7 @@ from tensordict import TensorDict
 from selfright.env.observations import privileged_mirror, student_mirror
 from selfright.robots import RobotSpec, get_robot
 
+
 @functools.cache
 def group_mirrors(robot_name: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """(index, sign) of each observation group's mirror (``student``, ``teacher``) and of the
