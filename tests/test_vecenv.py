@@ -13,7 +13,7 @@ from selfright.env.randomization import ModelRandomizer, sample_factors
 from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
 from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
-from selfright.train.contexts import make_training_worlds, training_cells
+from selfright.train.contexts import make_training_worlds, training_bench, training_cells
 from selfright.train.vecenv import RecoveryVecEnv
 
 CFG = BenchmarkConfig()
@@ -110,6 +110,26 @@ def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
     assert dones.tolist() == [True, False]
     assert extras["time_outs"].tolist() == [as_timeout, False]
     assert float(extras["log"]["Episode/left_tile_rate"]) == 1.0
+    env.close()
+
+
+def test_larger_training_tile_moves_the_edge_only():
+    """``EpisodeConfig.tile_size_m`` widens the training tile around the same drop square: a
+    robot where the benchmark's edge would end the episode keeps going."""
+    ep = EpisodeConfig(tile_size_m=12.0)
+    bench = training_bench(CFG, ep)
+    assert bench.terrain.tile_size_m == 12.0 and bench.terrain.spawn_size_m == CFG.terrain.spawn_size_m
+    assert training_bench(CFG, EpisodeConfig()) is CFG
+    with pytest.raises(ValueError, match="no room"):
+        training_bench(CFG, EpisodeConfig(tile_size_m=2.5))
+    (world,) = make_training_worlds("flat", bench, seed=0, episode=ep)
+    assert world.tile.heights.shape[0] == round(12.0 / CFG.terrain.resolution_m) + 1
+    env = RecoveryVecEnv(bench, dataclasses.replace(TrainConfig(), episode=ep), [world], num_envs=2, seed=1)
+    x = env.env.sl.pos.start
+    env.env.state[0, x] = CFG.terrain.tile_size_m / 2 - 0.1  # past the benchmark tile's edge margin
+    with torch.inference_mode():
+        _, _, dones, _ = env.step(torch.zeros(2, 12))
+    assert not dones.any()
     env.close()
 
 

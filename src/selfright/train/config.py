@@ -64,6 +64,12 @@ class EpisodeConfig:
     """Final stretch of an episode that decides promotion (s)."""
     rough_variants: int = 8
     """Tiles of the ``rough`` context, roughness extents evenly spaced up to ``rough_max_extent_m``."""
+    tile_size_m: float | None = None
+    """Side of the training tiles (m); ``None`` = the benchmark's (``TerrainConfig.tile_size_m``,
+    8 m). Robots are still dropped in the same central square; a larger tile lets an episode
+    that rolls away keep paying Table I's lying and drift penalties instead of ending at the
+    edge (the edge of a finite patch of an unbounded slope is an artefact). Validation and
+    ``selfright evaluate`` always use the benchmark's tile."""
     rough_max_extent_m: float = 0.35
     """Largest peak-to-peak roughness extent of the ``rough`` context (m). 0.35 m covers
     ``--grid rough`` (levels 4, 8, 12: 0.105, 0.21, 0.32 m) with a margin, so the policy is

@@ -56,6 +56,17 @@ def training_cells(context: str, cfg: BenchmarkConfig, episode: EpisodeConfig | 
     raise ValueError(f"unknown training context {context!r}; choose one of: {', '.join(CONTEXTS)}")
 
 
+def training_bench(cfg: BenchmarkConfig, episode: EpisodeConfig) -> BenchmarkConfig:
+    """The benchmark config of the training env: ``cfg`` with the training tile size."""
+    if episode.tile_size_m is None or episode.tile_size_m == cfg.terrain.tile_size_m:
+        return cfg
+    if episode.tile_size_m < cfg.terrain.spawn_size_m + 1.0:
+        raise ValueError(
+            f"training tile of {episode.tile_size_m} m leaves no room around the {cfg.terrain.spawn_size_m} m drop square"
+        )
+    return replace(cfg, terrain=replace(cfg.terrain, tile_size_m=episode.tile_size_m))
+
+
 def make_training_worlds(
     context: str, cfg: BenchmarkConfig, seed: int, episode: EpisodeConfig | None = None
 ) -> list[World]:

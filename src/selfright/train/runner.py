@@ -33,7 +33,7 @@ from rsl_rl.utils.logger import Logger
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.train.checkpoints import CHECKPOINT_RE, META_FILE, latest_checkpoint, list_checkpoints, read_meta
 from selfright.train.config import PolicyConfig, Role, TrainConfig
-from selfright.train.contexts import make_training_worlds
+from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.vecenv import RecoveryVecEnv
 
 PROGRESS_EVERY_S = 10.0
@@ -200,10 +200,11 @@ class TrainingRun:
 
         start_it = self._saved_iteration(self.resume_ckpt) + 1 if self.resume_ckpt else 0
         torch.manual_seed(s.seed + start_it)
-        worlds = make_training_worlds(s.context, s.bench, s.seed, s.train.episode)
+        bench = training_bench(s.bench, s.train.episode)  # validation keeps s.bench
+        worlds = make_training_worlds(s.context, bench, s.seed, s.train.episode)
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
         self.env = RecoveryVecEnv(
-            s.bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
+            bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
             device=s.device,
         )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
