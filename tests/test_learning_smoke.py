@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from rsl_rl.runners import OnPolicyRunner
 
-from selfright.config import ActionConfig, BenchmarkConfig
+from selfright.config import ActionConfig, BenchmarkConfig, RewardConfig, to_dict
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.learned import load_policy_file
 from selfright.train.commands import ExportArgs, export
@@ -23,7 +23,7 @@ from selfright.train.config import DistillationConfig, PPOConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.train.checkpoints import list_checkpoints
 from selfright.train.runner import RunSpec, TrainingRun
-from selfright.train.ship import ShipArgs, ship
+from selfright.train.ship import ShipArgs, reward_summary, ship
 from selfright.train.vecenv import RecoveryVecEnv
 
 CFG = BenchmarkConfig()
@@ -84,6 +84,7 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     card = (dest / "flat.md").read_text()
     assert "student" in card and "N = 4" in card and "```bash" in card
     assert "its teacher: 64 env steps" in card  # the teacher's 2 iterations × 4 envs × 8 steps
+    assert "**Reward**: the seed's Table I exactly" in card  # read off the teacher's run
     assert f"{100 * res.summary['overall']['success_rate']:.1f} %" in card
 
     # An earlier checkpoint of a run ships with its own steps, not the run's latest.
@@ -234,3 +235,14 @@ def test_ship_checks_notes_before_writing(tmp_path: Path):
     except ValueError as e:
         assert "--notes" in str(e)
     assert not (dest / "flat.pt").exists()
+
+
+def test_model_card_reward_line_flags_anything_but_table_i():
+    table = to_dict(RewardConfig())
+    assert reward_summary({"role": "teacher", "train_config": {"reward": {**table, "target_height_m": 0.37}}}) == (
+        "the seed's Table I exactly (z* = 0.37 m)"
+    )
+    line = reward_summary({"role": "teacher", "train_config": {"reward": {**table, "goal_set": 8.0, "torques": 0.002}}})
+    assert line.startswith("**not** the seed's Table I") and "goal-set term weight 8.0" in line
+    assert "torques 0.002 (Table I: 0.001)" in line
+    assert reward_summary({"role": "teacher"}).startswith("unknown")

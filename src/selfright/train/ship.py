@@ -118,6 +118,7 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
         + _budget("before that, its initialisation", meta.get("init_from")),
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
+        f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
         f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
@@ -138,6 +139,36 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
     if notes:
         lines += ["## Notes", "", notes, ""]
     return "\n".join(lines)
+
+
+def reward_summary(meta: dict[str, Any]) -> str:
+    """Which reward trained the policy (a student: its teacher's), against the seed's Table I:
+    "Table I exactly (z* = …)" or the weights that differ, flagged as not Table I."""
+    from dataclasses import fields
+
+    from selfright.config import RewardConfig
+    from selfright.train.checkpoints import read_meta
+
+    source = meta
+    if meta.get("role") == "student" and meta.get("teacher"):
+        teacher = Path(meta["teacher"])
+        source = read_meta(teacher.parent if teacher.suffix == ".pt" else teacher)
+    reward = (source.get("train_config") or {}).get("reward")
+    if not reward:
+        return "unknown (no train_config recorded)"
+    table = RewardConfig()
+    z = reward.get("target_height_m")
+    z_txt = "the robot's standing height" if z is None else f"{z} m"
+    changed = [
+        f"{f.name} {reward[f.name]} (Table I: {getattr(table, f.name)})"
+        for f in fields(RewardConfig)
+        if f.name not in ("goal_set", "target_height_m") and f.name in reward and reward[f.name] != getattr(table, f.name)
+    ]
+    if reward.get("goal_set"):
+        changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
+    if not changed:
+        return f"the seed's Table I exactly (z* = {z_txt})"
+    return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt})"
 
 
 def _cli(command_line: str) -> str:
