@@ -10,10 +10,11 @@ and the evaluation's ``summary.json`` (success with its Wilson interval, N, TTR,
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
+from selfright.config import RewardConfig
 from selfright.policies.registry import CHECKPOINT_DIR
 
 
@@ -144,9 +145,6 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
 def reward_summary(meta: dict[str, Any]) -> str:
     """Which reward trained the policy (a student: its teacher's), against the seed's Table I:
     "Table I exactly (z* = …)" or the weights that differ, flagged as not Table I."""
-    from dataclasses import fields
-
-    from selfright.config import RewardConfig
     from selfright.train.checkpoints import read_meta
 
     source = meta
