@@ -11,6 +11,9 @@ and prints, for the "low" class, the trunk height above the ground beneath it an
 mean ground under the feet (they differ on rough tiles; the goal set reads the first).
 
     python scripts/failure_modes.py --policy rough --grid rough --episodes 64
+
+``--tile-size-m 24`` replays the same falls on a larger tile (not the benchmark's): do the
+episodes that leave the 8 m tile get up further down the slope?
 """
 
 from __future__ import annotations
@@ -23,14 +26,13 @@ import numpy as np
 import torch
 import tyro
 
-from selfright.config import BenchmarkConfig
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.registry import make_policy
 
 
 def main(a: ReplayArgs) -> None:
-    cfg = BenchmarkConfig()
+    cfg = a.bench_config()
     policy = make_policy(a.policy, cfg)
     env, cells = replay_env(a, cfg)
     bar = cfg.goal.height_fraction * env.robot.leg_length_m

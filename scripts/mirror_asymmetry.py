@@ -18,7 +18,6 @@ import numpy as np
 import torch
 import tyro
 
-from selfright.config import BenchmarkConfig
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
@@ -45,7 +44,7 @@ class _MirrorProbe(Policy):
 
 
 def main(a: ReplayArgs) -> None:
-    cfg = BenchmarkConfig()
+    cfg = a.bench_config()
     probe = _MirrorProbe(make_policy(a.policy, cfg), cfg.robot.name)
     env, cells = replay_env(a, cfg)
     for k, cell in enumerate(cells):

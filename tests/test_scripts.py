@@ -16,6 +16,12 @@ def run_script(name: str, args: list[str], monkeypatch: pytest.MonkeyPatch) -> N
     runpy.run_path(str(SCRIPTS / name), run_name="__main__")
 
 
+def failure_classes(out: str) -> list[int]:
+    """Episode counts of ``failure_modes.py``'s classes (one per episode; not the "was in goal" tally)."""
+    return [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ") and "(was" not in line
+            and not line.strip().startswith("low:")]
+
+
 def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
     run_script("rough_ceiling.py", ["--grid", "rough", "--samples", "500", "--heights", "0.35", "0.7"], monkeypatch)
     rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip().startswith("0 ")]
@@ -27,10 +33,7 @@ def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
 
 def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
     run_script("failure_modes.py", ["--policy", "zero", "--grid", "flat", "--episodes", "4"], monkeypatch)
-    out = capsys.readouterr().out
-    counts = [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ") and "(was" not in line
-              and not line.strip().startswith("low:")]
-    assert sum(counts) == 4
+    assert sum(failure_classes(capsys.readouterr().out)) == 4
 
 
 def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
@@ -92,3 +95,18 @@ def test_mirror_asymmetry_separates_symmetric_from_random(monkeypatch, capsys):
     run_script("mirror_asymmetry.py", ["--policy", "random", "--grid", "flat", "--episodes", "2"], monkeypatch)
     value = float(capsys.readouterr().out.split("asymmetry ")[1].split()[0])
     assert 1.5 < value < 2.5
+
+
+def test_replay_on_a_larger_tile_keeps_the_falls(monkeypatch, capsys):
+    """``--tile-size-m`` grows the tile around the same drop square; the default is the benchmark's."""
+    from selfright.config import BenchmarkConfig
+    from selfright.evaluate.runner import ReplayArgs, replay_env
+
+    assert ReplayArgs().bench_config() == BenchmarkConfig()
+    a = ReplayArgs(policy="zero", grid="incline", episodes=2, tile_size_m=12.0)
+    env, _ = replay_env(a, a.bench_config())
+    assert env.half_size == pytest.approx(6.0)
+    env.close()
+    run_script("failure_modes.py", ["--policy", "zero", "--grid", "incline", "--episodes", "2", "--tile-size-m", "12"],
+               monkeypatch)
+    assert sum(failure_classes(capsys.readouterr().out)) == 2

@@ -5,6 +5,7 @@ depend on the others in its batch, so a resumed or re-batched run gives identica
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -149,6 +150,17 @@ class ReplayArgs:
     """Episodes per cell."""
     seed: int = 0
     """Run seed (same episodes as ``selfright evaluate --seed``)."""
+    tile_size_m: float | None = None
+    """Side of each cell's tile (m); ``None`` = the benchmark's (8 m). Same drop square and
+    falls on a larger tile: episodes that roll far keep going instead of failing at the edge
+    (a diagnostic; results on another tile are not the benchmark's)."""
+
+    def bench_config(self) -> BenchmarkConfig:
+        """The benchmark's configuration, with ``tile_size_m`` if given."""
+        cfg = BenchmarkConfig()
+        if self.tile_size_m is None:
+            return cfg
+        return dataclasses.replace(cfg, terrain=dataclasses.replace(cfg.terrain, tile_size_m=self.tile_size_m))
 
 
 def replay_env(a: ReplayArgs, cfg: BenchmarkConfig) -> tuple[RecoveryEnv, list[Cell]]:
