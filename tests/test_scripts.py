@@ -110,3 +110,20 @@ def test_replay_on_a_larger_tile_keeps_the_falls(monkeypatch, capsys):
     run_script("failure_modes.py", ["--policy", "zero", "--grid", "incline", "--episodes", "2", "--tile-size-m", "12"],
                monkeypatch)
     assert sum(failure_classes(capsys.readouterr().out)) == 2
+
+
+def test_average_checkpoints_means_the_actor_and_keeps_the_rest(tmp_path, monkeypatch):
+    import torch
+
+    paths = []
+    for k in range(3):
+        ckpt = {"actor_state_dict": {"mlp.0.weight": torch.full((2, 2), float(k)), "obs_normalizer._mean": torch.full((2,), float(k * k))},
+                "critic_state_dict": {"mlp.0.weight": torch.full((1, 2), float(k))}, "iter": k}
+        paths.append(tmp_path / f"model_{k}.pt")
+        torch.save(ckpt, paths[-1])
+    out = tmp_path / "avg.pt"
+    run_script("average_checkpoints.py", ["--out", str(out), "--checkpoints", *map(str, paths)], monkeypatch)
+    avg = torch.load(out, weights_only=True)
+    assert torch.equal(avg["actor_state_dict"]["mlp.0.weight"], torch.full((2, 2), 1.0))
+    assert torch.equal(avg["actor_state_dict"]["obs_normalizer._mean"], torch.full((2,), 1.0))  # the middle one's (the mean would be 5/3)
+    assert avg["iter"] == 1 and torch.equal(avg["critic_state_dict"]["mlp.0.weight"], torch.full((1, 2), 1.0))
