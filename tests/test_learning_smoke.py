@@ -246,3 +246,33 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert line.startswith("**not** the seed's Table I") and "goal-set term weight 8.0" in line
     assert "torques 0.002 (Table I: 0.001)" in line
     assert reward_summary({"role": "teacher"}).startswith("unknown")
+
+
+def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path):
+    """A student reading 2 stacked frames: its checkpoint, policy file and ONNX graph all keep
+    the history per env slot, and agree with the network on hand-stacked frames."""
+    teacher = tmp_path / "teacher"
+    run(spec(teacher))
+    train = dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, student_history=2))
+    student = tmp_path / "student"
+    r = run(spec(student, role="student", teacher=teacher, train=train))
+    assert all(math.isfinite(v) for v in r.last_loss.values())
+    assert json.loads((student / "train_meta.json").read_text())["policy"]["obs_history"] == 2
+    onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
+    frames = torch.randn(3, 2, 42, generator=torch.Generator().manual_seed(0))  # 3 steps of 2 slots
+    actor = load_policy_file(policy_path).module
+    assert actor.meta.obs_history == 2 and actor.meta.obs_dim == 84
+    expected = [actor(torch.cat([frames[max(t - 1, 0)], frames[t]], dim=1)) for t in range(3)]
+    for p in (list_checkpoints(student)[-1][1], policy_path, onnx_path):
+        policy = load_policy_file(p)
+        assert policy.history == 2
+        policy.reset(np.arange(2))
+        for t in range(3):
+            a = policy.act({"student": frames[t]}, np.arange(2), [None, None])
+            torch.testing.assert_close(a, expected[t], atol=1e-5, rtol=0)
+    res = evaluate_grid(load_policy_file(onnx_path), policy_name="h2", grid="tiny", episodes=1, seed=0,
+                        out_dir=tmp_path / "eval", cfg=CFG, progress=False)
+    assert res.summary["overall"]["n"] == 4
+    dest = tmp_path / "ckpts"
+    ship(ShipArgs(run=student, name="flat", evaluation=tmp_path / "eval", dest=dest))
+    assert "its last 2 frames stacked" in (dest / "flat.md").read_text()

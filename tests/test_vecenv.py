@@ -229,3 +229,23 @@ def test_prepared_start_on_a_stale_curriculum_level_is_redrawn():
     env._reset(np.array([1]))
     assert env.env.world_idx.tolist() == [0, 1]
     env.close()
+
+
+def test_student_history_group_stacks_frames_and_restarts_with_the_episode(flat_worlds):
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=0.06),  # 3 control steps
+                                distillation=dataclasses.replace(TrainConfig().distillation, student_history=3))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=0)
+    obs = env.get_observations()
+    assert obs["student_history"].shape == (2, 3 * 42)
+    torch.testing.assert_close(obs["student_history"], obs["student"].repeat(1, 3))
+    frames = [obs["student"]]
+    with torch.inference_mode():
+        for _ in range(2):
+            obs, _, dones, _ = env.step(torch.zeros(2, 12))
+            frames.append(obs["student"])
+        assert not dones.any()
+        torch.testing.assert_close(obs["student_history"], torch.cat(frames, dim=1))
+        obs, _, dones, _ = env.step(torch.zeros(2, 12))  # time-out: new episodes start
+    assert dones.all()
+    torch.testing.assert_close(obs["student_history"], obs["student"].repeat(1, 3))
+    env.close()

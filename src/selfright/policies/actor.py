@@ -36,6 +36,14 @@ GROUP_BY_DIM = {42: "student", 79: "teacher"}
 """Observation group by input size (A1: 9 + 3·12 = 42; + 37 privileged = 79)."""
 
 
+def group_dim(group: str) -> int:
+    """Size of one frame of observation group ``group``; ``ValueError`` for an unknown group."""
+    for dim, name in GROUP_BY_DIM.items():
+        if name == group:
+            return dim
+    raise ValueError(f"unknown observation group {group!r}; expected one of {sorted(GROUP_BY_DIM.values())}")
+
+
 @dataclass(frozen=True, kw_only=True)
 class ActorMeta:
     """What a policy file records besides the weights."""
@@ -67,6 +75,9 @@ class ActorMeta:
     empty if not recorded (files written before it was)."""
     action_scale_rad: float = 0.0
     """Radians of joint target per unit action it was trained with (0 = not recorded)."""
+    obs_history: int = 1
+    """Frames of ``obs_group`` in the input, oldest first (``obs_dim`` = frames × group size);
+    the policy keeps them per env slot (``selfright.policies.history``)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -127,9 +138,13 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         raise ValueError("checkpoint actor has no MLP weights (mlp.<i>.weight)")
     shapes = [tuple(sd[k].shape) for _, k in layers]
     obs_dim = shapes[0][1]
+    history = int(hint.get("obs_history", 1))
+    if obs_dim % history:
+        raise ValueError(f"actor input size {obs_dim} is not a multiple of its {history} observation frames")
     normalized = "obs_normalizer._mean" in sd
     meta = ActorMeta(
-        obs_group=hint.get("obs_group") or GROUP_BY_DIM.get(obs_dim, "teacher" if role == "teacher" else "student"),
+        obs_group=hint.get("obs_group")
+        or GROUP_BY_DIM.get(obs_dim // history, "teacher" if role == "teacher" else "student"),
         obs_dim=obs_dim,
         action_dim=shapes[-1][0],
         hidden_dims=tuple(s[0] for s in shapes[:-1]),
@@ -141,6 +156,7 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         source=str(hint.get("source", "")),
         action_reference=str(hint.get("action_reference", "")),
         action_scale_rad=float(hint.get("action_scale_rad", 0.0)),
+        obs_history=history,
     )
     actor = ActorMLP(meta)
     state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))
@@ -189,6 +205,8 @@ def load_actor_file(path: str | Path) -> ActorMLP:
 # ----------------------------------------------------------------------- ONNX
 def export_onnx(actor: ActorMLP, path: str | Path) -> None:
     """Write ``actor`` as ONNX: input ``obs`` (batch, D) float32 -> output ``actions`` (batch, J).
+    With ``meta.obs_history`` H > 1, ``obs`` is the group's last H frames concatenated, oldest
+    first, every frame the first one at an episode's start (the deployer keeps that history).
 
     The metadata (``ActorMeta``) is stored in the model's ``metadata_props`` (values as JSON).
     """

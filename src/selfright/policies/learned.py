@@ -18,41 +18,61 @@ from typing import Any
 import numpy as np
 import torch
 
-from selfright.policies.actor import GROUP_BY_DIM, FILE_FORMAT, actor_from_checkpoint, actor_from_payload
+from selfright.policies.actor import GROUP_BY_DIM, FILE_FORMAT, actor_from_checkpoint, actor_from_payload, group_dim
 from selfright.policies.base import Policy
+from selfright.policies.history import ObsHistory
 
 TORCH_SUFFIXES = (".pt", ".pth", ".jit", ".ts")
 
 
-class TorchPolicy(Policy):
+class _FilePolicy(Policy):
+    """A learned policy reading one observation group, optionally its last ``history`` frames
+    stacked (oldest first; ``selfright.policies.history``)."""
+
+    def __init__(self, group: str, name: str, action_mapping: tuple[str, float] | None, history: int):
+        self.group = group
+        self.name = name
+        self.action_mapping = action_mapping
+        self.history = history
+        self._frames = None if history <= 1 else ObsHistory(history, group_dim(group))
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        if self._frames is not None:
+            self._frames.reset(ids)
+
+    def _input(self, obs: dict[str, torch.Tensor], ids: np.ndarray) -> torch.Tensor:
+        """The network input (k, D): the group's observation, or its stacked history."""
+        x = obs[self.group].float()
+        return x if self._frames is None else self._frames.push(ids, x)
+
+
+class TorchPolicy(_FilePolicy):
     """A torch module ``obs (k, D) -> actions (k, J)`` reading one observation group."""
 
     def __init__(
         self, module: Callable[[torch.Tensor], torch.Tensor], group: str, name: str,
-        action_mapping: tuple[str, float] | None = None,
+        action_mapping: tuple[str, float] | None = None, history: int = 1,
     ):
+        super().__init__(group, name, action_mapping, history)
         self.module = module
-        self.group = group
-        self.name = name
-        self.action_mapping = action_mapping
 
     @torch.no_grad()
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
-        return self.module(obs[self.group].float()).float()
+        return self.module(self._input(obs, ids)).float()
 
 
-class OnnxPolicy(Policy):
+class OnnxPolicy(_FilePolicy):
     """An ONNX graph ``obs (k, D) -> actions (k, J)`` run by onnxruntime on the CPU."""
 
-    def __init__(self, session: Any, group: str, name: str, action_mapping: tuple[str, float] | None = None):
+    def __init__(
+        self, session: Any, group: str, name: str, action_mapping: tuple[str, float] | None = None, history: int = 1,
+    ):
+        super().__init__(group, name, action_mapping, history)
         self.session = session
         self.input_name = session.get_inputs()[0].name
-        self.group = group
-        self.name = name
-        self.action_mapping = action_mapping
 
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
-        x = obs[self.group].detach().cpu().numpy().astype(np.float32)
+        x = self._input(obs, ids).detach().cpu().numpy().astype(np.float32)
         return torch.from_numpy(self.session.run(None, {self.input_name: x})[0]).float()
 
 
@@ -99,7 +119,7 @@ def _load_torch(p: Path) -> Policy:
         )
     m = actor.meta
     mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
-    return TorchPolicy(actor, m.obs_group, p.stem, mapping)
+    return TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history)
 
 
 def _load_jit(p: Path) -> Policy:
@@ -134,7 +154,8 @@ def _load_onnx(p: Path) -> Policy:
     if group not in GROUP_BY_DIM.values():
         raise ValueError(f"ONNX policy {p}: cannot tell its observation group (no metadata, input size unknown)")
     ref, scale = _json_or_none(props.get("action_reference")), _json_or_none(props.get("action_scale_rad"))
-    return OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None)
+    history = int(_json_or_none(props.get("obs_history")) or 1)
+    return OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None, history)
 
 
 # ------------------------------------------------------------------- helpers
@@ -156,10 +177,10 @@ def _wrap(p: Path, fn: Callable[..., Any], *args: Any) -> Any:
 
 def _probe(policy: Policy, p: Path) -> None:
     """Run the policy once on zeros so a broken file fails at load time, not mid-evaluation."""
-    dim = {v: k for k, v in GROUP_BY_DIM.items()}[policy.group]
-    obs = {policy.group: torch.zeros(1, dim)}
+    obs = {policy.group: torch.zeros(1, group_dim(policy.group))}
     try:
         out = policy.act(obs, np.zeros(1, dtype=np.int64), [None])
+        policy.reset(np.zeros(1, dtype=np.int64))  # the probe's frame is no episode's history
     except Exception as e:  # noqa: BLE001
         raise ValueError(f"policy file {p} does not run on {policy.group} observations ({_first_line(e)})") from e
     if out.dim() != 2 or out.shape[0] != 1 or not torch.isfinite(out).all():

@@ -124,7 +124,8 @@ def export(args: ExportArgs) -> tuple[Path, Path]:
         policy_path = ckpt.with_name(f"{ckpt.stem}_policy.pt")
     export_onnx(actor, onnx_path)
     save_actor_file(policy_path, actor)
-    print(f"exported {actor.meta.obs_group} actor ({actor.meta.role}, {actor.meta.context or 'context ?'}) "
+    frames = f" × {actor.meta.obs_history} frames" if actor.meta.obs_history > 1 else ""
+    print(f"exported {actor.meta.obs_group}{frames} actor ({actor.meta.role}, {actor.meta.context or 'context ?'}) "
           f"of {ckpt}: {onnx_path}, {policy_path}")
     return onnx_path, policy_path
 

@@ -152,6 +152,11 @@ class DistillationConfig:
     """Gradient-norm clip (dimensionless)."""
     loss_type: Literal["mse", "huber"] = "mse"
     """Behaviour-cloning loss between student and teacher mean actions."""
+    student_history: int = 1
+    """Frames of the ``student`` observation the student reads, stacked oldest first (1 = the
+    current one only). The issue allows a short history: on the incline a lying robot cannot
+    tell the slope from one IMU reading, while a few frames show which way it slides.
+    Deployment stacks frames the same way (``selfright.policies.history``)."""
     student_init_std: float = 0.1
     """Action noise of the student while it collects its own rollouts (action units)."""
 
@@ -227,7 +232,7 @@ class TrainConfig:
         return {
             **common,
             "num_steps_per_env": d.steps_per_env,
-            "obs_groups": {"student": ["student"], "teacher": ["teacher"]},
+            "obs_groups": {"student": [student_group(d.student_history)], "teacher": ["teacher"]},
             "student": {**net, "distribution_cfg": _gaussian(d.student_init_std)},
             # The teacher acts deterministically; init_std 0 as rsl_rl's maintainers advise
             # (its trained std is loaded with the weights and never used).
@@ -241,6 +246,11 @@ class TrainConfig:
                 "loss_type": d.loss_type,
             },
         }
+
+
+def student_group(history: int) -> str:
+    """Name of the observation group a student with ``history`` frames reads."""
+    return "student" if history <= 1 else "student_history"
 
 
 def _symmetry_cfg(p: PPOConfig) -> dict[str, Any] | None:

@@ -257,6 +257,7 @@ class TrainingRun:
             "context": self.spec.context,
             "action_reference": self.spec.bench.action.reference,
             "action_scale_rad": self.spec.bench.action.scale_rad,
+            "obs_history": self.spec.train.distillation.student_history if self.spec.role == "student" else 1,
         }
 
     def meta(self, done_it: int, checkpoint: Path | None) -> dict[str, Any]:

@@ -52,7 +52,7 @@ def ship(args: ShipArgs) -> Path:
     out = args.dest / f"{args.name}.pt"
     save_actor_file(out, actor)
     notes = args.notes.read_text().strip() if args.notes is not None else ""
-    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group, notes))
+    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group, notes, actor.meta.obs_history))
     print(f"shipped {out} and its model card {out.with_suffix('.md')}")
     return out
 
@@ -96,8 +96,11 @@ def _budget(label: str, checkpoint: str | None) -> str:
     return f"; {label}: {int(t.get('env_steps', 0)):,} env steps, {float(t.get('wall_clock_s', 0.0)) / 3600:.2f} h"
 
 
-def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str, notes: str = "") -> str:
-    """Markdown model card from a run's meta, an evaluation summary and optional notes."""
+def model_card(
+    name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str, notes: str = "", history: int = 1
+) -> str:
+    """Markdown model card from a run's meta, an evaluation summary and optional notes
+    (``history``: frames of ``obs_group`` the actor reads)."""
     o = summary["overall"]
     lo, hi = o["success_ci95"]
     steps = int(meta.get("env_steps", 0))
@@ -110,7 +113,8 @@ def model_card(name: str, meta: dict[str, Any], summary: dict[str, Any], obs_gro
     lines = [
         f"# Model card: `{name}`",
         "",
-        f"- **Role**: {meta.get('role')} (observation group `{obs_group}`)"
+        f"- **Role**: {meta.get('role')} (observation group `{obs_group}`"
+        + (f", its last {history} frames stacked oldest first)" if history > 1 else ")")
         + (f", distilled from `{teacher}`" if teacher else ""),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),

@@ -37,6 +37,8 @@ from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_
 from selfright.env.recovery_env import RecoveryEnv
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
 from selfright.env.world import World
+from selfright.policies.actor import group_dim
+from selfright.policies.history import ObsHistory
 from selfright.train.config import TrainConfig
 from selfright.train.starts import EpisodeDraw, PreparedStarts
 
@@ -98,6 +100,10 @@ class RecoveryVecEnv(VecEnv):
         self.track_tail = self.curriculum or self.replay_share > 0
         self.failed_starts: deque[tuple[int, np.random.Generator]] = deque(maxlen=num_envs)
         """(world, generator before the fall draw) of recent failed episodes, for replay."""
+        frames = train.distillation.student_history
+        self.student_frames = ObsHistory(frames, group_dim("student"), num_envs) if frames > 1 else None
+        """The last ``student_history`` student observations of each slot (group
+        ``student_history``), for a student that reads a short history."""
         self.slot_start: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
         self.replayed = torch.zeros(num_envs, dtype=torch.bool)
         self.prepare_starts = ep.prepare_starts
@@ -182,6 +188,8 @@ class RecoveryVecEnv(VecEnv):
             self.slot_start[i] = draw.origins[j]
         self.episode_length_buf[t] = 0
         self.tail_goal_steps[t] = 0
+        if self.student_frames is not None:
+            self.student_frames.reset(ids)
         self.replayed[t] = torch.from_numpy(draw.replayed)
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
@@ -190,10 +198,13 @@ class RecoveryVecEnv(VecEnv):
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
         groups = self.env.observe()
+        if self.student_frames is not None:
+            groups["student_history"] = self.student_frames.push(np.arange(self.num_envs), groups["student"])
         return TensorDict(groups, batch_size=[self.num_envs]).to(self.device)
 
     def get_observations(self) -> TensorDict:
-        """Observation groups ``student`` (n, 42) and ``teacher`` (n, 79) of the current states."""
+        """Observation groups ``student`` (n, 42) and ``teacher`` (n, 79) of the current states,
+        and ``student_history`` (n, 42 H) with a student history of H > 1 frames."""
         return self._obs
 
     # -------------------------------------------------------------- stepping
