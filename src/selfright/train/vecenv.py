@@ -39,7 +39,7 @@ from selfright.env.rewards import RewardContext, reward_weights, standing_height
 from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
-from selfright.train.config import TrainConfig
+from selfright.train.config import TrainConfig, student_group
 from selfright.train.starts import EpisodeDraw, PreparedStarts
 
 
@@ -103,7 +103,7 @@ class RecoveryVecEnv(VecEnv):
         frames = train.distillation.student_history
         self.student_frames = ObsHistory(frames, group_dim("student"), num_envs) if frames > 1 else None
         """The last ``student_history`` student observations of each slot (group
-        ``student_history``), for a student that reads a short history."""
+        ``student_group(frames)``), for a student that reads a short history."""
         self.slot_start: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
         self.replayed = torch.zeros(num_envs, dtype=torch.bool)
         self.prepare_starts = ep.prepare_starts
@@ -199,7 +199,7 @@ class RecoveryVecEnv(VecEnv):
     def _observe(self) -> TensorDict:
         groups = self.env.observe()
         if self.student_frames is not None:
-            groups["student_history"] = self.student_frames.push(np.arange(self.num_envs), groups["student"])
+            groups[student_group(self.student_frames.frames)] = self.student_frames.push(np.arange(self.num_envs), groups["student"])
         return TensorDict(groups, batch_size=[self.num_envs]).to(self.device)
 
     def get_observations(self) -> TensorDict:
