@@ -1,10 +1,11 @@
 import csv
+import dataclasses
 import json
 from pathlib import Path
 
 import pytest
 
-from selfright.config import BenchmarkConfig, GoalConfig
+from selfright.config import BenchmarkConfig, EvalConfig, GoalConfig
 from selfright.evaluate.results import COLUMNS, ResultsError
 from selfright.evaluate.runner import evaluate_grid
 from selfright.evaluate.metrics import wilson_interval
@@ -70,6 +71,18 @@ def test_resume_after_interruption_loses_and_duplicates_nothing(reference, tmp_p
     again = run(tmp_path)
     assert again.episodes_run == 0
     assert path.read_bytes() == (reference / "episodes.csv").read_bytes()
+
+
+def test_learned_policy_results_do_not_depend_on_batching(tmp_path):
+    """An episode's row is the same whether it runs alone or beside others (and so after a
+    resume, whose batches differ): the shipped student acts on each env independently."""
+    cfg = BenchmarkConfig(goal=GoalConfig(episode_s=2.0, hold_s=0.2))
+    alone = dataclasses.replace(cfg, eval=EvalConfig(batch_size=1))
+    run(tmp_path / "batched", policy="flat", episodes=3, cfg=cfg)
+    run(tmp_path / "alone", policy="flat", episodes=3, cfg=alone)
+    batched = (tmp_path / "batched" / "episodes.csv").read_bytes()
+    assert batched == (tmp_path / "alone" / "episodes.csv").read_bytes()
+    assert b",1," in batched  # some episodes succeed: the trajectories are not trivial
 
 
 def test_resume_refuses_a_different_run(reference, tmp_path):

@@ -117,3 +117,23 @@ def test_bad_files_raise_value_error(tmp_path: Path, name: str):
         load_policy_file(path)
     msg = str(info.value)
     assert "\n" not in msg and str(path) in msg
+
+
+def test_actor_rows_do_not_depend_on_the_batch():
+    """``forward_rows`` gives each row the same bits whatever rows share its batch (a batched
+    matrix product does not: BLAS sums in a batch-size-dependent order), and agrees with
+    ``forward``."""
+    from selfright.policies.learned import TorchPolicy
+
+    actor = actor_from_checkpoint({"actor_state_dict": rsl_actor(79, "teacher").state_dict()})
+    x = random_obs(200, 79, seed=3)
+    alone = torch.cat([actor.forward_rows(x[i : i + 1]) for i in range(70)])
+    with torch.no_grad():
+        torch.testing.assert_close(actor.forward_rows(x), actor(x), atol=1e-5, rtol=0)
+        for start, size in [(0, 2), (0, 7), (3, 33), (0, 64), (5, 195)]:
+            rows = actor.forward_rows(x[start : start + size])
+            n = min(size, 70 - start)
+            assert torch.equal(rows[:n], alone[start : start + n]), (start, size)
+    policy = TorchPolicy(actor, "teacher", "t")
+    out = policy.act({"teacher": x[:9]}, np.arange(9), [None] * 9)
+    assert torch.equal(out, alone[:9])

@@ -1,4 +1,4 @@
-"""``selfright`` command line: evaluate, scene, bench-sim, train, export, ship (tyro subcommands)."""
+"""``selfright`` command line: evaluate, replay, scene, bench-sim, train, export, ship (tyro subcommands)."""
 
 from __future__ import annotations
 
@@ -17,21 +17,15 @@ Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
 
 
 @dataclass(frozen=True)
-class Evaluate:
-    """Evaluate a policy on a grid of terrain contexts; writes episodes.csv, summary.json, plots."""
+class _Episodes:
+    """Options shared by ``evaluate`` and ``replay``: which policy, which episodes, under what."""
 
     policy: str = "open-loop"
     """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file | a training run folder (its latest checkpoint)."""
     grid: Grid = "quick"
     """tiny = 2×2 cells (tests), quick = every other level, paper = full 11×20 grid, or a training context."""
-    episodes: int = 20
-    """Episodes per cell."""
     seed: int = 0
     """Run seed: terrain and every episode's fall are derived from it."""
-    out: Path | None = None
-    """Results directory (default results/POLICY_GRID). Rerunning into it resumes."""
-    batch_size: int = 64
-    """Episodes simulated side by side."""
     threads: int = 0
     """Physics threads (0 = one per core)."""
     friction: float = 1.0
@@ -46,10 +40,54 @@ class Evaluate:
     """Episode limit after settling (s)."""
     action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
+
+    def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
+        return _benchmark_config(
+            threads=self.threads, batch_size=batch_size, friction=self.friction, wall_gap_ratio=self.wall_gap_ratio,
+            ground_timeconst_s=self.ground_timeconst, hold_s=self.hold_s, episode_s=self.episode_s,
+            action_reference=self.action_reference,
+        )
+
+
+@dataclass(frozen=True)
+class Evaluate(_Episodes):
+    """Evaluate a policy on a grid of terrain contexts; writes episodes.csv, summary.json, plots."""
+
+    episodes: int = 20
+    """Episodes per cell."""
+    out: Path | None = None
+    """Results directory (default results/POLICY_GRID). Rerunning into it resumes."""
+    batch_size: int = 64
+    """Episodes simulated side by side."""
     plots: bool = True
     """Write the heatmaps and histograms."""
     progress: bool = True
     """Show a progress bar."""
+
+
+@dataclass(frozen=True)
+class Replay(_Episodes):
+    """Replay one episode of an evaluation (same fall and outcome as its episodes.csv row) and
+    record it: trace.csv / trace.png (height, tilt, feet over time), episode.gif, filmstrip.png."""
+
+    policy: str = "flat"
+    """As for evaluate."""
+    grid: Grid = "flat"
+    """As for evaluate; pick the cell with --slope-level / --roughness-level if it has several."""
+    episode: int = 0
+    """Episode index within the cell (the ``episode`` column of episodes.csv)."""
+    slope_level: int | None = None
+    """Slope level of the cell (needed only if the grid has several)."""
+    roughness_level: int | None = None
+    """Roughness level of the cell (needed only if the grid has several)."""
+    out: Path | None = None
+    """Output folder (default results/replay_POLICY_GRID_EPISODE)."""
+    video: bool = True
+    """Render episode.gif and filmstrip.png (offscreen OpenGL: MUJOCO_GL=egl unless set)."""
+    width: int = 320
+    """Video width (pixels)."""
+    height: int = 240
+    """Video height (pixels)."""
 
 
 @dataclass(frozen=True)
@@ -100,11 +138,7 @@ def run_evaluate(a: Evaluate) -> None:
     from selfright.evaluate.runner import evaluate_grid, format_table
     from selfright.policies.registry import make_policy
 
-    cfg = _benchmark_config(
-        threads=a.threads, batch_size=a.batch_size, friction=a.friction, wall_gap_ratio=a.wall_gap_ratio,
-        ground_timeconst_s=a.ground_timeconst, hold_s=a.hold_s, episode_s=a.episode_s,
-        action_reference=a.action_reference,
-    )
+    cfg = a.bench_config(a.batch_size)
     if a.batch_size < 1:
         raise ValueError("--batch-size must be >= 1")
     out = a.out or Path("results") / f"{Path(a.policy).stem}_{a.grid}"
@@ -119,6 +153,46 @@ def run_evaluate(a: Evaluate) -> None:
         make_plots(out)
     print(format_table(res.summary))
     print(f"{res.episodes_run} episodes simulated in {res.seconds:.1f} s; results in {out}/")
+
+
+def run_replay(a: Replay) -> None:
+    from selfright.evaluate.replay import replay_episode, select_cell, write_replay
+    from selfright.plots.trace import plot_trace
+    from selfright.policies.registry import make_policy
+
+    cfg = a.bench_config()
+    cell = select_cell(a.grid, cfg, a.slope_level, a.roughness_level)
+    out = a.out or Path("results") / f"replay_{Path(a.policy).stem}_{a.grid}_{a.episode}"
+    policy = make_policy(a.policy, cfg)
+    r = replay_episode(policy, cfg, a.grid, cell, a.episode, a.seed)
+    write_replay(out, r, {"policy": a.policy, "grid": a.grid, "seed": a.seed}, cfg)
+    plot_trace(out)
+    outcome = f"success: TTR {r.ttr_s:.2f} s, DTR {r.dtr_m:.2f} m" if r.success else "failure"
+    print(f"episode {a.episode} of slope {cell.slope_pct:.0f} %, roughness level {cell.roughness_level} (seed {a.seed}): {outcome}")
+    if a.video:
+        _render(out, a.width, a.height)
+    print(f"results in {out}/")
+
+
+def _render(folder: Path, width: int, height: int) -> None:
+    """Render in a child process, so that MuJoCo can load with an offscreen GL backend."""
+    import os
+    import subprocess
+
+    env = dict(os.environ)
+    if sys.platform.startswith("linux") and "DISPLAY" not in env:
+        env.setdefault("MUJOCO_GL", "egl")
+    cmd = [sys.executable, "-m", "selfright.evaluate.render", str(folder), "--width", str(width), "--height", str(height)]
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["(no output)"]
+        print(
+            f"selfright: warning: rendering failed ({tail[0]}); trace.csv and trace.png are written. "
+            f"Retry with another MUJOCO_GL (egl, osmesa, glfw): MUJOCO_GL=osmesa python {' '.join(cmd[1:])}",
+            file=sys.stderr,
+        )
+        return
+    print(proc.stdout.strip())
 
 
 def run_scene(a: Scene) -> None:
@@ -150,7 +224,7 @@ def run_bench(a: BenchSim) -> None:
 
 
 def _commands() -> dict[str, type]:
-    cmds: dict[str, type] = {"evaluate": Evaluate, "scene": Scene, "bench-sim": BenchSim}
+    cmds: dict[str, type] = {"evaluate": Evaluate, "replay": Replay, "scene": Scene, "bench-sim": BenchSim}
     try:
         from selfright.train.commands import ExportArgs, TrainArgs
         from selfright.train.ship import ShipArgs
@@ -169,6 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if isinstance(args, Evaluate):
             run_evaluate(args)
+        elif isinstance(args, Replay):
+            run_replay(args)
         elif isinstance(args, Scene):
             run_scene(args)
         elif isinstance(args, BenchSim):

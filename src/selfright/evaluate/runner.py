@@ -117,12 +117,16 @@ def evaluate_grid(
 def rollout_batch(
     env: RecoveryEnv, policy: Policy, cell_index: np.ndarray, seeds: np.ndarray, contexts: list[str],
     on_step: Callable[[np.ndarray, StepOutput], None] | None = None,
+    on_start: Callable[[], None] | None = None,
 ) -> np.ndarray:
     """Reset env slots ``0..n-1`` to the falls of ``seeds`` on the worlds ``cell_index`` and run
-    ``policy`` until every episode is done; returns which episodes succeeded. ``on_step(active,
-    out)`` sees each control step's output for the slots still running (diagnostics)."""
+    ``policy`` until every episode is done; returns which episodes succeeded. ``on_start()``
+    runs once the falls have settled, ``on_step(active, out)`` sees each control step's output
+    for the slots still running (diagnostics)."""
     ids = np.arange(len(seeds))
     env.reset(ids, cell_index, [np.random.default_rng(s) for s in seeds])
+    if on_start is not None:
+        on_start()
     policy.reset(ids, seeds)
     success = np.zeros(len(seeds), dtype=bool)
     active = ids[~env.diverged[torch.from_numpy(ids)].numpy()]

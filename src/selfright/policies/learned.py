@@ -18,7 +18,14 @@ from typing import Any
 import numpy as np
 import torch
 
-from selfright.policies.actor import GROUP_BY_DIM, FILE_FORMAT, actor_from_checkpoint, actor_from_payload, group_dim
+from selfright.policies.actor import (
+    FILE_FORMAT,
+    GROUP_BY_DIM,
+    ActorMLP,
+    actor_from_checkpoint,
+    actor_from_payload,
+    group_dim,
+)
 from selfright.policies.base import Policy
 from selfright.policies.history import ObsHistory
 
@@ -47,7 +54,11 @@ class _FilePolicy(Policy):
 
 
 class TorchPolicy(_FilePolicy):
-    """A torch module ``obs (k, D) -> actions (k, J)`` reading one observation group."""
+    """A torch module ``obs (k, D) -> actions (k, J)`` reading one observation group.
+
+    Each env's action is computed independently of the others in the batch (``ActorMLP``'s
+    ``forward_rows``, other modules one row at a time), so an episode's outcome does not depend
+    on which episodes share its batch: ``--batch-size`` and resuming leave results unchanged."""
 
     def __init__(
         self, module: Callable[[torch.Tensor], torch.Tensor], group: str, name: str,
@@ -58,7 +69,10 @@ class TorchPolicy(_FilePolicy):
 
     @torch.no_grad()
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
-        return self.module(self._input(obs, ids)).float()
+        x = self._input(obs, ids)
+        if isinstance(self.module, ActorMLP):
+            return self.module.forward_rows(x).float()
+        return _rows(lambda r: self.module(r).float(), x)
 
 
 class OnnxPolicy(_FilePolicy):
@@ -72,8 +86,20 @@ class OnnxPolicy(_FilePolicy):
         self.input_name = session.get_inputs()[0].name
 
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
-        x = self._input(obs, ids).detach().cpu().numpy().astype(np.float32)
-        return torch.from_numpy(self.session.run(None, {self.input_name: x})[0]).float()
+        """One row per session run, for the batch independence ``TorchPolicy`` explains."""
+
+        def run(r: torch.Tensor) -> torch.Tensor:
+            x = r.detach().cpu().numpy().astype(np.float32)
+            return torch.from_numpy(self.session.run(None, {self.input_name: x})[0]).float()
+
+        return _rows(run, self._input(obs, ids))
+
+
+def _rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) -> torch.Tensor:
+    """``fn`` applied to each row of ``x`` (k, D) as a batch of one, stacked: (k, J)."""
+    if len(x) == 0:
+        return fn(x)
+    return torch.cat([fn(x[i : i + 1]) for i in range(len(x))])
 
 
 def load_policy_file(path: str | Path) -> Policy:
