@@ -36,7 +36,7 @@ def evaluated(tmp_path_factory):
 def replayed(tmp_path_factory):
     out = tmp_path_factory.mktemp("replay")
     cell = select_cell("flat", CFG, None, None)
-    r = replay_episode(make_policy("flat", CFG), CFG, "flat", cell, 2, seed=0)
+    r = replay_episode(make_policy("flat", CFG), CFG, cell, 2, seed=0)
     write_replay(out, r, {"policy": "flat", "grid": "flat", "seed": 0}, CFG)
     plot_trace(out)
     return out, r
@@ -47,7 +47,7 @@ def test_replay_reproduces_each_evaluated_episode(evaluated):
     policy = make_policy("flat", CFG)
     assert any(r["success"] == "1" for r in evaluated) and any(r["success"] == "0" for r in evaluated)
     for row in evaluated:
-        r = replay_episode(policy, CFG, "flat", cell, int(row["episode"]), seed=0)
+        r = replay_episode(policy, CFG, cell, int(row["episode"]), seed=0)
         assert r.episode_seed == int(row["seed"])
         assert r.success == (row["success"] == "1")
         if r.success:

@@ -75,13 +75,13 @@ class Replay(_Episodes):
     grid: Grid = "flat"
     """As for evaluate; pick the cell with --slope-level / --roughness-level if it has several."""
     episode: int = 0
-    """Episode index within the cell (the ``episode`` column of episodes.csv)."""
+    """Episode index within the cell (the episode column of episodes.csv)."""
     slope_level: int | None = None
     """Slope level of the cell (needed only if the grid has several)."""
     roughness_level: int | None = None
     """Roughness level of the cell (needed only if the grid has several)."""
     out: Path | None = None
-    """Output folder (default results/replay_POLICY_GRID_EPISODE)."""
+    """Output folder (default results/replay_POLICY_GRID_SLOPE-ROUGHNESS_EPISODE_sSEED)."""
     video: bool = True
     """Render episode.gif and filmstrip.png (offscreen OpenGL: MUJOCO_GL=egl unless set)."""
     width: int = 320
@@ -162,9 +162,11 @@ def run_replay(a: Replay) -> None:
 
     cfg = a.bench_config()
     cell = select_cell(a.grid, cfg, a.slope_level, a.roughness_level)
-    out = a.out or Path("results") / f"replay_{Path(a.policy).stem}_{a.grid}_{a.episode}"
+    out = a.out or Path("results") / (
+        f"replay_{Path(a.policy).stem}_{a.grid}_{cell.slope_level}-{cell.roughness_level}_{a.episode}_s{a.seed}"
+    )
     policy = make_policy(a.policy, cfg)
-    r = replay_episode(policy, cfg, a.grid, cell, a.episode, a.seed)
+    r = replay_episode(policy, cfg, cell, a.episode, a.seed)
     write_replay(out, r, {"policy": a.policy, "grid": a.grid, "seed": a.seed}, cfg)
     plot_trace(out)
     outcome = f"success: TTR {r.ttr_s:.2f} s, DTR {r.dtr_m:.2f} m" if r.success else "failure"

@@ -82,7 +82,7 @@ def _trace_row(rs: RobotState, in_goal: torch.Tensor, t_s: float) -> dict[str, f
     }
 
 
-def replay_episode(policy: Policy, cfg: BenchmarkConfig, grid: str, cell: Cell, episode: int, seed: int) -> Replay:
+def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: int, seed: int) -> Replay:
     """Simulate episode ``episode`` of ``cell`` (run seed ``seed``) as the evaluator does."""
     if episode < 0:
         raise ValueError(f"--episode must be >= 0, got {episode}")
