@@ -127,3 +127,19 @@ def test_average_checkpoints_means_the_actor_and_keeps_the_rest(tmp_path, monkey
     assert torch.equal(avg["actor_state_dict"]["mlp.0.weight"], torch.full((2, 2), 1.0))
     assert torch.equal(avg["actor_state_dict"]["obs_normalizer._mean"], torch.full((2,), 1.0))  # the middle one's (the mean would be 5/3)
     assert avg["iter"] == 1 and torch.equal(avg["critic_state_dict"]["mlp.0.weight"], torch.full((1, 2), 1.0))
+
+
+def test_seed_table_pools_seeds(tmp_path, monkeypatch, capsys):
+    import json
+
+    for seed, k in [(0, 3), (1, 1)]:
+        (tmp_path / f"s{seed}").mkdir()
+        (tmp_path / f"s{seed}" / "summary.json").write_text(json.dumps({
+            "policy": "p", "grid": "flat", "episodes_per_cell": 4, "seed": seed,
+            "overall": {"success_rate": k / 4, "n": 4}}))
+    run_script("seed_table.py", [str(tmp_path / "s0"), str(tmp_path / "s1")], monkeypatch)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["seed", "0:", "3", "/", "4", "=", "75.0", "%", "[30,", "95]"]
+    assert lines[-1].split()[:7] == ["pooled:", "4", "/", "8", "=", "50.0", "%"]
+    with pytest.raises(SystemExit, match="seed 0 appears twice"):
+        run_script("seed_table.py", [str(tmp_path / "s0"), str(tmp_path / "s0")], monkeypatch)
