@@ -52,6 +52,17 @@ def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
     assert all(r["speedup"] > 0 for r in loops if "speedup" in r)
 
 
+def test_policy_forward_benchmark_prints_both_timings(monkeypatch, capsys):
+    import json
+
+    monkeypatch.setattr(sys, "argv", ["policy_forward.py", "--batches", "3", "64", "--seconds", "0.2"])
+    runpy.run_path(str(SCRIPTS.parent / "benchmarks" / "policy_forward.py"), run_name="__main__")
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["batch"] for r in rows] == [3, 64]
+    assert all(r["forward_us"] > 0 and r["forward_rows_us"] > 0 for r in rows)
+    assert rows[1]["env_step_us_64_envs"] > 0 and "extra_share_of_env_step" in rows[1]
+
+
 @pytest.mark.slow
 def test_mjx_throughput_benchmark_runs_where_jax_is_installed(monkeypatch, capsys):
     """The MJX planning benchmark (optional deps: jax, mujoco-mjx; ~2 min of compiling on CPU)."""
