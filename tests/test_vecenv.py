@@ -249,3 +249,46 @@ def test_student_history_group_stacks_frames_and_restarts_with_the_episode(flat_
     assert dones.all()
     torch.testing.assert_close(obs["student_history"], obs["student"].repeat(1, 3))
     env.close()
+
+
+@pytest.mark.parametrize("share", [1.0, 0.0])
+def test_stuck_end_states_restart_episodes(flat_worlds, share):
+    """With restart_stuck 1.0 every episode that ends outside the goal set hands its final
+    state to a new episode (clock reset, on the ground, no new fall); with 0 new episodes
+    are fresh falls."""
+    ep = EpisodeConfig(episode_s=0.1, restart_stuck=share, prepare_starts=False)  # 5 steps: nobody gets up
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=3, seed=4)
+    with torch.inference_mode():
+        for _ in range(5):
+            _, _, dones, extras = env.step(torch.zeros(3, 12))
+    assert dones.all() and np.allclose(env.env.state[:, 0], CFG.fall.settle_s)
+    assert len(env.stuck_ends) == 0  # kept and taken back out (or never kept)
+    assert env.replayed.all() == bool(share)
+    if share:
+        assert float(extras["log"]["Episode/replayed_share"]) == 0.0  # the episodes that ended were fresh
+    else:
+        assert "Episode/replayed_share" not in extras["log"]
+    env.close()
+
+
+def test_stuck_end_state_is_the_final_state(flat_worlds):
+    """A restarted episode starts from exactly a kept end state, on that episode's tile and
+    randomised model."""
+    ep = EpisodeConfig(episode_s=0.1, restart_stuck=1.0, prepare_starts=False)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=5)
+    taken = []
+    take = env.stuck_ends.take
+    env.stuck_ends.take = lambda rng: taken.append(take(rng)) or taken[-1]
+    kept = []
+    put = env.stuck_ends.put
+    env.stuck_ends.put = lambda e: kept.append(e) or put(e)
+    with torch.inference_mode():
+        for _ in range(5):
+            env.step(torch.zeros(2, 12))
+    assert len(kept) == 2 and len(taken) == 2 and {id(e) for e in kept} == {id(e) for e in taken}
+    for i in range(2):
+        e = next(e for e in taken if np.array_equal(e.state[1:], env.env.state[i, 1:]))
+        assert env.env.world_idx[i] == e.world
+        np.testing.assert_allclose(env.slot_factors[i], e.factors)
+        assert float(env.env.friction[i]) == pytest.approx(e.factors[0], rel=1e-6)
+    env.close()

@@ -53,6 +53,13 @@ class EpisodeConfig:
     in the goal set. Every start is still a draw of the seed's fall protocol; replay only
     re-weights them towards those the policy does not yet get up from (the rare postures of
     the flat plateau). Up to ``num_envs`` failed starts are kept, oldest replayed first."""
+    restart_stuck: float = 0.0
+    """Share of new training episodes that start, with no new fall, from the final state of a
+    recent episode that ended outside the goal set (its tile, randomisation factors and
+    state, the clock reset), 0 = off. The flat plateau's failures are postures the policy
+    stalls in (sitting on the rear legs: docs/training.md); this puts them in the batch as
+    starts. Unlike ``replay_failed`` these starts are not draws of the seed's fall protocol.
+    Up to ``num_envs`` end states are kept; each is used once, picked at random."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the

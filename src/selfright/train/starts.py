@@ -4,6 +4,7 @@ possibly kept per slot until the slot's current episode ends (``EpisodeConfig.pr
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -25,7 +26,8 @@ class EpisodeDraw:
     """k models the episodes run on (randomised copies or the worlds' own); None = rebuild them
     from ``world_idx`` and ``factors`` (prepared starts do not keep a ~0.5 MB model copy each)."""
     replayed: np.ndarray
-    """(k,) bool, the fall replays a recent failed episode's draw."""
+    """(k,) bool, not a fresh fall: it replays a recent failed episode's draw, or restarts
+    from a stuck episode's end state (``EpisodeConfig.restart_stuck``)."""
     origins: list[tuple[int, np.random.Generator] | None]
     """(world, generator before the fall draw) of each episode, kept for replay (else None)."""
     settled: SettledStarts
@@ -79,3 +81,38 @@ class PreparedStarts:
         for i in slots:
             self.origins[i] = None
         return draw
+
+
+@dataclass(frozen=True)
+class EndState:
+    """Where a finished training episode stopped: enough to start another one there."""
+
+    world: int
+    factors: np.ndarray | None
+    """(4,) randomisation factors (``EpisodeFactors.as_array`` row); None = randomisation off."""
+    state: np.ndarray
+    """(nstate,) full-physics state."""
+    sens: np.ndarray
+    """(nsensordata,) sensor readings of that state."""
+
+
+class StuckEnds:
+    """End states of recent episodes that finished outside the goal set, each handed out once
+    (``EpisodeConfig.restart_stuck``); the oldest drop out beyond ``maxlen``."""
+
+    def __init__(self, maxlen: int):
+        self._ends: deque[EndState] = deque(maxlen=maxlen)
+
+    def __len__(self) -> int:
+        return len(self._ends)
+
+    def put(self, end: EndState) -> None:
+        self._ends.append(end)
+
+    def take(self, rng: np.random.Generator) -> EndState:
+        """Remove and return a uniformly chosen end state."""
+        k = int(rng.integers(len(self._ends)))
+        self._ends.rotate(-k)
+        end = self._ends.popleft()
+        self._ends.rotate(k)
+        return end

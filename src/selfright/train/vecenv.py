@@ -34,13 +34,13 @@ from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
-from selfright.env.recovery_env import RecoveryEnv
+from selfright.env.recovery_env import RecoveryEnv, SettledStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
 from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
 from selfright.train.config import TrainConfig, student_group
-from selfright.train.starts import EpisodeDraw, PreparedStarts
+from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
 
 
 class RecoveryVecEnv(VecEnv):
@@ -97,7 +97,12 @@ class RecoveryVecEnv(VecEnv):
         self.tail_goal_steps = torch.zeros(num_envs, dtype=torch.long)
         """In-goal control steps within the final ``window`` steps of the current episode."""
         self.replay_share = ep.replay_failed
-        self.track_tail = self.curriculum or self.replay_share > 0
+        self.restart_share = ep.restart_stuck
+        self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
+        self.stuck_ends = StuckEnds(num_envs)
+        """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
+        self.slot_factors: np.ndarray | None = None
+        """(n, 4) randomisation factors of each slot's episode (``EpisodeFactors.as_array``)."""
         self.failed_starts: deque[tuple[int, np.random.Generator]] = deque(maxlen=num_envs)
         """(world, generator before the fall draw) of recent failed episodes, for replay."""
         frames = train.distillation.student_history
@@ -164,9 +169,59 @@ class RecoveryVecEnv(VecEnv):
                 replayed[j] = True
             origins = [(int(w), copy.deepcopy(r)) for w, r in zip(world_idx, rngs)]
         f = sample_factors(k, self.train_cfg.randomization, self.rng) if self.randomizer is not None else None
+        ends = self._take_stuck_ends(k)
+        if ends:
+            world_idx = np.array(world_idx)
+            factors = f.as_array() if f is not None else None
+            for j, e in ends.items():
+                world_idx[j] = e.world
+                if factors is not None and e.factors is not None:
+                    factors[j] = e.factors
+                replayed[j] = True
+                origins[j] = None
+            f = EpisodeFactors.from_array(factors) if factors is not None else None
         models = self._models(world_idx, f)
-        settled = env.settle(world_idx, rngs, models)
+        fresh = np.array([j for j in range(k) if j not in ends], dtype=np.int64)
+        if len(fresh):
+            settled = env.settle(world_idx[fresh], [rngs[j] for j in fresh], [models[j] for j in fresh])
+        else:
+            settled = SettledStarts(np.empty((0, env.sl.size)), np.empty((0, env.sens.shape[1])), np.zeros(0, bool))
+        if ends:
+            settled = self._with_end_states(settled, fresh, ends, k)
         return EpisodeDraw(world_idx, f, models, replayed, origins, settled)
+
+    def _take_stuck_ends(self, k: int) -> dict[int, EndState]:
+        """Rows of a k-row draw that restart from stuck end states (``restart_stuck``), and theirs."""
+        ends: dict[int, EndState] = {}
+        if self.restart_share > 0:
+            for j in np.flatnonzero(self.rng.random(k) < self.restart_share):
+                if not len(self.stuck_ends):
+                    break
+                ends[int(j)] = self.stuck_ends.take(self.rng)
+        return ends
+
+    def _with_end_states(
+        self, settled: SettledStarts, fresh: np.ndarray, ends: dict[int, EndState], k: int
+    ) -> SettledStarts:
+        """k starts: the settled falls in rows ``fresh``, the end states (clock reset to the
+        settle's end, as for a fall) in the other rows."""
+        state = np.empty((k, self.env.sl.size))
+        sens = np.empty((k, self.env.sens.shape[1]))
+        diverged = np.zeros(k, dtype=bool)
+        state[fresh], sens[fresh], diverged[fresh] = settled.state, settled.sens, settled.diverged
+        for j, e in ends.items():
+            state[j], sens[j] = e.state, e.sens
+            state[j, self.env.sl.time] = self.env.cfg.fall.settle_s
+        return SettledStarts(state=state, sens=sens, diverged=diverged)
+
+    def _keep_stuck_ends(self, ids: torch.Tensor, excluded: torch.Tensor) -> None:
+        """Keep the end states of finished episodes that ended mostly outside the goal set
+        (``excluded``: diverged or off the tile, whose end says nothing useful)."""
+        stuck = ~self._ended_in_goal(ids) & ~excluded[ids]
+        env = self.env
+        for i in ids[stuck].tolist():
+            factors = None if self.slot_factors is None else self.slot_factors[i].copy()
+            self.stuck_ends.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy()))
 
     def _models(self, world_idx: np.ndarray, f: EpisodeFactors | None) -> list[mujoco.MjModel]:
         """The episodes' models: randomised copies of their worlds' models, or those models."""
@@ -182,6 +237,9 @@ class RecoveryVecEnv(VecEnv):
         if draw.factors is not None:
             env.factors[t] = draw.factors.as_tensor()
             env.friction[t] = torch.from_numpy(draw.factors.friction).float()
+            if self.slot_factors is None:
+                self.slot_factors = np.ones((self.num_envs, 4))
+            self.slot_factors[ids] = draw.factors.as_array()
         else:
             env.factors[t] = 1.0
         for j, i in enumerate(ids):
@@ -262,6 +320,9 @@ class RecoveryVecEnv(VecEnv):
                 log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
             if self.replay_share > 0:
                 self._keep_failed_starts(done_ids, diverged)
+            if self.restart_share > 0:
+                self._keep_stuck_ends(done_ids, diverged | left_tile)
+            if self.replay_share > 0 or self.restart_share > 0:
                 log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
         self._obs = self._observe()
