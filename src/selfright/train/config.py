@@ -59,7 +59,8 @@ class EpisodeConfig:
     state, the clock reset), 0 = off. The flat plateau's failures are postures the policy
     stalls in (sitting on the rear legs: docs/training.md); this puts them in the batch as
     starts. Unlike ``replay_failed`` these starts are not draws of the seed's fall protocol.
-    Up to ``num_envs`` end states are kept; each is used once, picked at random."""
+    Up to ``num_envs`` end states are kept; each is used once, picked at random. Under Table
+    I it sped the flat teacher's drift into the crouch (docs/training.md)."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the
