@@ -137,3 +137,14 @@ def test_actor_rows_do_not_depend_on_the_batch():
     policy = TorchPolicy(actor, "teacher", "t")
     out = policy.act({"teacher": x[:9]}, np.arange(9), [None] * 9)
     assert torch.equal(out, alone[:9])
+
+
+def test_onnx_policy_rows_do_not_depend_on_the_batch(tmp_path: Path):
+    actor = actor_from_checkpoint({"actor_state_dict": rsl_actor(42, "student").state_dict()})
+    export_onnx(actor, tmp_path / "a.onnx")
+    policy = load_policy_file(tmp_path / "a.onnx")
+    x = random_obs(40, 42, seed=9)
+    batched = policy.act({"student": x}, np.arange(40), [None] * 40)
+    for start, size in [(0, 1), (3, 7), (10, 30)]:
+        part = policy.act({"student": x[start : start + size]}, np.arange(size), [None] * size)
+        assert torch.equal(part, batched[start : start + size])
