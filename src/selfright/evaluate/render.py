@@ -52,15 +52,14 @@ def _in_goal(folder: Path, n: int) -> np.ndarray:
     return flags
 
 
-def render_frames(a: RenderArgs, indices: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
-    """Images (height, width, 3) of the recorded states ``indices``, and their times (s)."""
+def render_frames(a: RenderArgs, indices: np.ndarray) -> dict[int, np.ndarray]:
+    """Images (height, width, 3) of the recorded states ``indices``, by index."""
     import mujoco
 
     from selfright.sim.batch import STATE_SPEC
 
     folder = Path(a.folder)
-    rec = np.load(folder / "trajectory.npz")
-    states, t_s = rec["states"], rec["t_s"]
+    states = np.load(folder / "trajectory.npz")["states"]
     model = mujoco.MjModel.from_xml_string((folder / "scene.xml").read_text())
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, a.width)
     model.vis.global_.offheight = max(model.vis.global_.offheight, a.height)
@@ -70,59 +69,51 @@ def render_frames(a: RenderArgs, indices: np.ndarray) -> tuple[list[np.ndarray],
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.distance, cam.azimuth, cam.elevation = a.distance_m, a.azimuth_deg, a.elevation_deg
+    wanted = {int(i) for i in indices}
     lookat: np.ndarray | None = None
-    images = []
+    images: dict[int, np.ndarray] = {}
     with mujoco.Renderer(model, a.height, a.width) as renderer:
-        for i in range(int(indices[-1]) + 1):
+        for i in range(max(wanted) + 1):
             mujoco.mj_setState(model, data, states[i], STATE_SPEC)
             mujoco.mj_forward(model, data)
             # Follow the trunk smoothly (every state, so the path is the same whatever is drawn).
             pos = data.xpos[trunk]
             lookat = pos.copy() if lookat is None else lookat + 0.15 * (pos - lookat)
-            if i not in indices:
+            if i not in wanted:
                 continue
             cam.lookat[:] = lookat
             renderer.update_scene(data, cam)
             img = renderer.render().copy()
             if goal[i]:
                 img[:4], img[-4:], img[:, :4], img[:, -4:] = GOAL_RGB, GOAL_RGB, GOAL_RGB, GOAL_RGB
-            images.append(img)
-    return images, t_s[indices]
+            images[i] = img
+    return images
 
 
-def write_gif(a: RenderArgs) -> Path:
-    """``episode.gif``: every recorded state at most ``fps`` times a second, in real time."""
+def write_gif(folder: Path, images: list[np.ndarray], frame_s: float) -> Path:
+    """``episode.gif`` of ``images``, each shown ``frame_s`` seconds."""
     from PIL import Image
 
-    folder = Path(a.folder)
-    rec = np.load(folder / "trajectory.npz")
-    n, dt = len(rec["states"]), float(rec["control_dt_s"])
-    stride = max(1, int(round(1.0 / (a.fps * dt))))
-    images, _ = render_frames(a, np.arange(0, n, stride))
     frames = [Image.fromarray(im).quantize(colors=128) for im in images]
-    path = folder / "episode.gif"
-    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 * stride * dt)), loop=0)
+    path = Path(folder) / "episode.gif"
+    frames[0].save(path, save_all=True, append_images=frames[1:], duration=int(round(1000 * frame_s)), loop=0)
     return path
 
 
-def write_filmstrip(a: RenderArgs) -> Path:
-    """``filmstrip.png``: ``frames`` evenly spaced states, first and last included."""
+def write_filmstrip(a: RenderArgs, images: list[np.ndarray], times: np.ndarray) -> Path:
+    """``filmstrip.png``: ``images`` side by side, titled with their ``times`` (s)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    folder = Path(a.folder)
-    n = len(np.load(folder / "trajectory.npz")["states"])
-    idx = np.unique(np.linspace(0, n - 1, max(1, a.frames)).round().astype(int))
-    images, times = render_frames(a, idx)
     fig, axes = plt.subplots(1, len(images), figsize=(2.2 * len(images), 2.2 * a.height / a.width + 0.35), squeeze=False)
     for ax, im, t in zip(axes[0], images, times):
         ax.imshow(im)
         ax.set_title(f"t = {t:.1f} s", fontsize=9)
         ax.axis("off")
     fig.tight_layout(pad=0.3)
-    path = folder / "filmstrip.png"
+    path = Path(a.folder) / "filmstrip.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -133,7 +124,17 @@ def main(a: RenderArgs) -> None:
         raise SystemExit(f"render: {a.folder} has no trajectory.npz; write it with selfright replay --out {a.folder}")
     if a.width < 16 or a.height < 16 or a.fps <= 0 or a.frames < 1:
         raise SystemExit("render: --width/--height must be >= 16, --fps > 0, --frames >= 1")
-    for path in (write_gif(a), write_filmstrip(a)):
+    rec = np.load(Path(a.folder) / "trajectory.npz")
+    n, dt, t_s = len(rec["states"]), float(rec["control_dt_s"]), rec["t_s"]
+    # The GIF: every state at most ``fps`` times a second, in real time. The filmstrip:
+    # ``frames`` evenly spaced states, first and last included. One rendering pass for both.
+    stride = max(1, int(round(1.0 / (a.fps * dt))))
+    gif_idx = np.arange(0, n, stride)
+    strip_idx = np.unique(np.linspace(0, n - 1, a.frames).round().astype(int))
+    images = render_frames(a, np.union1d(gif_idx, strip_idx))
+    gif = write_gif(a.folder, [images[i] for i in gif_idx], stride * dt)
+    strip = write_filmstrip(a, [images[i] for i in strip_idx], t_s[strip_idx])
+    for path in (gif, strip):
         print(f"wrote {path}")
 
 
