@@ -54,6 +54,8 @@ class Replay:
     dtr_m: float | None
     diverged: bool
     scene_xml: str
+    goal_height_m: float
+    """The goal set's trunk-height bar (m)."""
 
 
 def select_cell(grid: str, cfg: BenchmarkConfig, slope_level: int | None, roughness_level: int | None) -> Cell:
@@ -113,6 +115,7 @@ def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: in
         cell=cell, episode=episode, episode_seed=ep_seed, states=np.stack(states), trace=trace,
         success=ok, ttr_s=float(m["ttr_s"][0]) if ok else None, dtr_m=float(m["dtr_m"][0]) if ok else None,
         diverged=bool(m["diverged"][0]), scene_xml=world.xml,
+        goal_height_m=cfg.goal.height_fraction * env.robot.leg_length_m,
     )
 
 
@@ -133,15 +136,9 @@ def write_replay(out_dir: Path, r: Replay, identity: dict[str, Any], cfg: Benchm
         "roughness_extent_m": c.roughness_extent_m, "context": c.context, "episode": r.episode,
         "episode_seed": r.episode_seed, "success": r.success, "ttr_s": r.ttr_s, "dtr_m": r.dtr_m,
         "diverged": r.diverged, "control_steps": len(r.states) - 1,
-        "goal_height_m": cfg.goal.height_fraction * _leg_length(cfg), "max_tilt_deg": cfg.goal.max_tilt_deg,
+        "goal_height_m": r.goal_height_m, "max_tilt_deg": cfg.goal.max_tilt_deg,
         "hold_s": cfg.goal.hold_s, "config": to_dict(cfg),
     })
-
-
-def _leg_length(cfg: BenchmarkConfig) -> float:
-    from selfright.robots import get_robot
-
-    return get_robot(cfg.robot.name).leg_length_m
 
 
 def _fmt(v: Any) -> str:

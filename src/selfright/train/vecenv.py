@@ -101,8 +101,9 @@ class RecoveryVecEnv(VecEnv):
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
         self.stuck_ends = StuckEnds(num_envs)
         """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
-        self.slot_factors: np.ndarray | None = None
-        """(n, 4) randomisation factors of each slot's episode (``EpisodeFactors.as_array``)."""
+        self.slot_factors = np.ones((num_envs, 4))
+        """(n, 4) randomisation factors of each slot's episode (``EpisodeFactors.as_array``;
+        meaningful only with randomisation on)."""
         self.failed_starts: deque[tuple[int, np.random.Generator]] = deque(maxlen=num_envs)
         """(world, generator before the fall draw) of recent failed episodes, for replay."""
         frames = train.distillation.student_history
@@ -220,7 +221,7 @@ class RecoveryVecEnv(VecEnv):
         stuck = ~self._ended_in_goal(ids) & ~excluded[ids]
         env = self.env
         for i in ids[stuck].tolist():
-            factors = None if self.slot_factors is None else self.slot_factors[i].copy()
+            factors = self.slot_factors[i].copy() if self.randomizer is not None else None
             self.stuck_ends.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy()))
 
     def _models(self, world_idx: np.ndarray, f: EpisodeFactors | None) -> list[mujoco.MjModel]:
@@ -237,8 +238,6 @@ class RecoveryVecEnv(VecEnv):
         if draw.factors is not None:
             env.factors[t] = draw.factors.as_tensor()
             env.friction[t] = torch.from_numpy(draw.factors.friction).float()
-            if self.slot_factors is None:
-                self.slot_factors = np.ones((self.num_envs, 4))
             self.slot_factors[ids] = draw.factors.as_array()
         else:
             env.factors[t] = 1.0
