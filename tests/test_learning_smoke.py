@@ -276,3 +276,32 @@ def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path
     dest = tmp_path / "ckpts"
     ship(ShipArgs(run=student, name="flat", evaluation=tmp_path / "eval", dest=dest))
     assert "its last 2 frames stacked" in (dest / "flat.md").read_text()
+
+
+def test_state_dependent_std_starts_as_the_source_policy_and_deploys_its_mean(tmp_path: Path):
+    """--init-from a teacher with one std vector into a teacher whose std depends on the state:
+    the same means and stds at the start; after training, the run's checkpoint, its exported
+    files and a student distilled from it all see the mean head only."""
+    src = tmp_path / "flat"
+    run(spec(src))
+    train = dataclasses.replace(TINY, policy=dataclasses.replace(TINY.policy, state_dependent_std=True))
+    r = TrainingRun(spec(tmp_path / "sds", init_from=src, train=train))
+    r.setup()
+    obs = r.env.get_observations()
+    new = r.runner.alg.get_policy()
+    source = load_policy_file(src / "model_0.pt")
+    torch.testing.assert_close(new(obs), source.act(obs, np.arange(4), [None] * 4), atol=1e-5, rtol=0)
+    new(obs, stochastic_output=True)
+    std = torch.load(src / "model_0.pt", weights_only=True)["actor_state_dict"]["distribution.std_param"]
+    torch.testing.assert_close(new.distribution.std, std.expand(4, -1))
+    r.run()
+    sds = tmp_path / "sds"
+    assert json.loads((sds / "train_meta.json").read_text())["policy"]["state_dependent_std"] is True
+    ckpt = list_checkpoints(sds)[-1][1]
+    trained = r.runner.alg.get_policy()
+    onnx_path, policy_path = export(ExportArgs(checkpoint=ckpt, onnx=tmp_path / "sds.onnx"))
+    for p in (ckpt, policy_path, onnx_path):
+        policy = load_policy_file(p)
+        torch.testing.assert_close(policy.act(obs, np.arange(4), [None] * 4), trained(obs)[:, :12], atol=1e-5, rtol=0)
+    s = run(spec(tmp_path / "student", role="student", teacher=sds))
+    assert all(math.isfinite(v) for v in s.last_loss.values())

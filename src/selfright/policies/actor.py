@@ -175,6 +175,14 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
     if not layers:
         raise ValueError("checkpoint actor has no MLP weights (mlp.<i>.weight)")
     shapes = [tuple(sd[k].shape) for _, k in layers]
+    # A PPO actor with a state-dependent std (rsl_rl HeteroscedasticGaussianDistribution) has
+    # no distribution parameters; its last layer outputs [mean; log std], and only the mean
+    # is deployed.
+    two_heads = bool(hint.get("state_dependent_std", role == "teacher" and not any(k.startswith("distribution.") for k in sd)))
+    if two_heads:
+        if shapes[-1][0] % 2:
+            raise ValueError(f"actor with a state-dependent std needs an even output size, got {shapes[-1][0]}")
+        shapes[-1] = (shapes[-1][0] // 2, shapes[-1][1])
     obs_dim = shapes[0][1]
     history = int(hint.get("obs_history", 1))
     if obs_dim % history:
@@ -198,6 +206,10 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
     )
     actor = ActorMLP(meta)
     state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))
+    if two_heads:  # keep the mean head: the first half of the last layer's rows
+        last = layers[-1][1]
+        bias = last.removesuffix("weight") + "bias"
+        state[last], state[bias] = state[last][: meta.action_dim], state[bias][: meta.action_dim]
     if normalized:
         state["obs_mean"] = sd["obs_normalizer._mean"].reshape(-1)
         state["obs_std"] = sd["obs_normalizer._std"].reshape(-1)

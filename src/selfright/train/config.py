@@ -98,6 +98,12 @@ class PolicyConfig:
     """Initial standard deviation of the Gaussian action noise (action units). 0.5 gives
     0.25 rad of target jitter with the 0.5 rad action scale, the exploration legged_gym's A1
     setup uses; 1.0 made the target random-walk so hard that standing was never found."""
+    state_dependent_std: bool = False
+    """Teacher only: the actor's last layer also outputs the log standard deviation, so the
+    exploration noise depends on the state (rsl_rl ``HeteroscedasticGaussianDistribution``)
+    instead of being one learned vector. ``--init-from`` a checkpoint with a state-independent
+    std starts with the std head's weights at zero and its bias at the source's log std: the
+    same stochastic policy. The deployed (mean) actor is the first half of the last layer."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -217,7 +223,7 @@ class TrainConfig:
                 **common,
                 "num_steps_per_env": p.steps_per_env,
                 "obs_groups": {"actor": ["teacher"], "critic": ["teacher"]},
-                "actor": {**net, "distribution_cfg": _gaussian(pol.init_std)},
+                "actor": {**net, "distribution_cfg": _gaussian(pol.init_std, pol.state_dependent_std)},
                 "critic": dict(net),
                 "algorithm": {
                     "class_name": "PPO",
@@ -244,7 +250,10 @@ class TrainConfig:
             "student": {**net, "distribution_cfg": _gaussian(d.student_init_std)},
             # The teacher acts deterministically; init_std 0 as rsl_rl's maintainers advise
             # (its trained std is loaded with the weights and never used).
-            "teacher": {**_mlp_cfg(teacher_policy or pol), "distribution_cfg": _gaussian(0.0)},
+            "teacher": {
+                **_mlp_cfg(teacher_policy or pol),
+                "distribution_cfg": _gaussian(0.0, (teacher_policy or pol).state_dependent_std),
+            },
             "algorithm": {
                 "class_name": "Distillation",
                 "num_learning_epochs": d.num_learning_epochs,
@@ -282,5 +291,8 @@ def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:
     }
 
 
-def _gaussian(init_std: float) -> dict[str, Any]:
+def _gaussian(init_std: float, state_dependent: bool = False) -> dict[str, Any]:
+    if state_dependent:
+        # A std of 0 has no log: a deterministic (distilled-from) teacher's head is never used.
+        return {"class_name": "HeteroscedasticGaussianDistribution", "init_std": max(init_std, 1e-3), "std_type": "log"}
     return {"class_name": "GaussianDistribution", "init_std": init_std, "std_type": "scalar"}

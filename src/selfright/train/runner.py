@@ -31,7 +31,14 @@ from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.train.checkpoints import CHECKPOINT_RE, META_FILE, latest_checkpoint, list_checkpoints, read_meta
+from selfright.train.checkpoints import (
+    CHECKPOINT_RE,
+    META_FILE,
+    latest_checkpoint,
+    list_checkpoints,
+    read_meta,
+    with_std_head,
+)
 from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.vecenv import RecoveryVecEnv
@@ -80,6 +87,7 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyCon
                 hidden_dims=tuple(pol["hidden_dims"]),
                 activation=pol["activation"],
                 obs_normalization=bool(pol["obs_normalization"]),
+                state_dependent_std=bool(pol.get("state_dependent_std", False)),
             ),
             meta,
         )
@@ -225,7 +233,10 @@ class TrainingRun:
         elif s.init_from is not None:
             init = latest_checkpoint(s.init_from)
             _, init_meta = teacher_policy_config(init, s.train.policy)  # refuses student runs
-            r.load(str(init), load_cfg={"actor": True, "critic": True})
+            source = torch.load(init, map_location=self.spec.device, weights_only=False)
+            if s.train.policy.state_dependent_std:
+                source["actor_state_dict"] = with_std_head(source["actor_state_dict"])
+            r.alg.load(source, {"actor": True, "critic": True}, True)
             self.init_ckpt = init
             _warn_symmetry_on_init(s.train, init_meta, init)
             if s.train.recenter_on_init:
@@ -253,6 +264,7 @@ class TrainingRun:
             "hidden_dims": list(pol.hidden_dims),
             "activation": pol.activation,
             "obs_normalization": pol.obs_normalization,
+            "state_dependent_std": pol.state_dependent_std and self.spec.role == "teacher",
             "role": self.spec.role,
             "context": self.spec.context,
             "action_reference": self.spec.bench.action.reference,
