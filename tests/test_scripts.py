@@ -154,3 +154,62 @@ def test_seed_table_pools_seeds(tmp_path, monkeypatch, capsys):
     assert lines[-1].split()[:7] == ["pooled:", "4", "/", "8", "=", "50.0", "%"]
     with pytest.raises(SystemExit, match="seed 0 appears twice"):
         run_script("seed_table.py", [str(tmp_path / "s0"), str(tmp_path / "s0")], monkeypatch)
+
+
+def tiny_checkpoint(tmp_path: Path) -> Path:
+    """A one-layer PPO teacher checkpoint with a state-independent std of 0.3."""
+    import torch
+
+    ckpt = tmp_path / "run" / "model_0.pt"
+    ckpt.parent.mkdir()
+    g = torch.Generator().manual_seed(0)
+    torch.save({"actor_state_dict": {"mlp.0.weight": 0.1 * torch.randn(12, 79, generator=g), "mlp.0.bias": torch.zeros(12),
+                                     "distribution.std_param": torch.full((12,), 0.3)}, "iter": 0, "infos": {}}, ckpt)
+    return ckpt
+
+
+def test_policy_variants_noise_is_seeded_and_an_ensemble_of_one_policy_is_that_policy(tmp_path, monkeypatch, capsys):
+    import csv
+
+    def rows(out):
+        with (out / "episodes.csv").open() as fh:
+            return [(r["episode"], r["success"], r["ttr_s"], r["energy_j"]) for r in csv.DictReader(fh)]
+
+    ckpt = tiny_checkpoint(tmp_path)
+    common = ["--grid", "tiny", "--episodes", "1", "--seed", "3"]
+    outs = {}
+    for tag, extra in [("a", ["--policies", str(ckpt), "--noise-scale", "1"]), ("b", ["--policies", str(ckpt), "--noise-scale", "1"]),
+                       ("mean", ["--policies", str(ckpt)]), ("zero", ["--policies", "zero"]), ("zz", ["--policies", "zero", "zero"])]:
+        outs[tag] = tmp_path / tag
+        run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
+    assert "noise x1" in capsys.readouterr().out
+    assert rows(outs["a"]) == rows(outs["b"]) and rows(outs["a"]) != rows(outs["mean"])
+    assert rows(outs["zz"]) == rows(outs["zero"])
+    with pytest.raises(SystemExit, match="no state-independent action std"):
+        run_script("policy_variants.py", [*common, "--policies", "zero", "--noise-scale", "1", "--out", str(tmp_path / "x")], monkeypatch)
+
+
+def test_failure_overlap_counts_shared_failures(tmp_path, monkeypatch, capsys):
+    import json
+
+    outcomes = {"p": [1, 0, 0, 1], "q": [1, 1, 0, 0]}
+    for name, ok in outcomes.items():
+        d = tmp_path / name
+        d.mkdir()
+        (d / "summary.json").write_text(json.dumps({"policy": name, "grid": "flat", "seed": 0}))
+        (d / "episodes.csv").write_text("slope_level,roughness_level,episode,success\n"
+                                        + "".join(f"0,0,{e},{s}\n" for e, s in enumerate(ok)))
+    run_script("failure_overlap.py", [str(tmp_path / "p"), str(tmp_path / "q")], monkeypatch)
+    out = capsys.readouterr().out
+    assert "   0: 1" in out and "   1: 2" in out and "   2: 1" in out
+    assert "at least one policy succeeded: 75.0%; all failed: 1 episodes" in out
+    with pytest.raises(SystemExit, match="at least two policies"):
+        run_script("failure_overlap.py", [str(tmp_path / "p")], monkeypatch)
+
+
+def test_stance_under_noise_prints_shares_per_checkpoint_and_scale(tmp_path, monkeypatch, capsys):
+    ckpt = tiny_checkpoint(tmp_path)
+    run_script("stance_under_noise.py", ["--checkpoints", str(ckpt), "--episodes", "2", "--noise-scales", "0", "1"], monkeypatch)
+    lines = [ln.split() for ln in capsys.readouterr().out.splitlines()[1:]]
+    assert [ln[1] for ln in lines] == ["0.00", "1.00"]
+    assert all(0.0 <= float(x) <= 1.0 for ln in lines for x in ln[2:4])

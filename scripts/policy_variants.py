@@ -1,0 +1,68 @@
+"""Evaluate variants of learned policies that do not ship: a policy that samples its actions
+from its own training noise instead of acting with the mean, or an ensemble acting with the
+mean of its members' actions. Writes an ordinary ``selfright evaluate`` results folder, so
+``scripts/seed_table.py`` and ``scripts/failure_overlap.py`` read it.
+
+    python scripts/policy_variants.py --policies runs/flat_teacher/model_3445.pt --noise-scale 0.5 \\
+        --grid flat --seed 4 --out results/flat_teacher_noisy_s4
+    python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --grid flat \\
+        --seed 4 --out results/ensemble_s4
+
+The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
+``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
+batching.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import tyro
+
+from selfright.config import BenchmarkConfig
+from selfright.evaluate.runner import evaluate_grid
+from selfright.policies.base import Policy
+from selfright.policies.registry import make_policy
+from selfright.policies.variants import MeanOf, Noisy, trained_std
+
+
+@dataclass(frozen=True)
+class Args:
+    policies: tuple[str, ...]
+    """One policy (with ``--noise-scale``), or several to average: any ``--policy`` value."""
+    out: Path
+    """Results folder."""
+    grid: str = "flat"
+    episodes: int = 64
+    seed: int = 0
+    noise_scale: float = 0.0
+    """Action noise as a multiple of the checkpoint's trained std (0 = the mean action)."""
+
+
+def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
+    if not a.policies:
+        raise ValueError("give --policies")
+    if a.noise_scale > 0:
+        if len(a.policies) != 1:
+            raise ValueError("--noise-scale takes one policy")
+        return Noisy(make_policy(a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
+    members = [make_policy(p, cfg) for p in a.policies]
+    return members[0] if len(members) == 1 else MeanOf(members)
+
+
+def main(a: Args) -> None:
+    cfg = BenchmarkConfig()
+    try:
+        policy = make_variant(a, cfg)
+    except ValueError as e:
+        raise SystemExit(f"policy_variants: {e}") from None
+    name = " + ".join(a.policies) + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
+    res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
+                        out_dir=a.out, cfg=cfg, progress=True)
+    o = res.summary["overall"]
+    print(f"{name} on {a.grid} [seed {a.seed}]: {o['success_rate']:.1%} of {o['n']}")
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))

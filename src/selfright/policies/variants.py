@@ -1,0 +1,64 @@
+"""Policies built from other policies, for analysis (none ships): one that samples its
+actions from its training noise instead of acting with the mean, and an ensemble acting with
+the mean of its members' actions (``scripts/policy_variants.py``)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from selfright.policies.base import Policy
+
+
+class MeanOf(Policy):
+    """Acts with the mean of its members' actions."""
+
+    def __init__(self, members: Sequence[Policy]):
+        self.members = list(members)
+        self.groups = tuple(sorted({g for p in self.members for g in p.groups}))
+        self.action_mapping = self.members[0].action_mapping
+        self.name = "mean of " + ", ".join(p.name for p in self.members)
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        for p in self.members:
+            p.reset(ids, seeds)
+
+    def act(self, obs, ids, contexts):
+        return torch.stack([p.act(obs, ids, contexts) for p in self.members]).mean(0)
+
+
+class Noisy(Policy):
+    """``inner``'s mean action plus Gaussian noise of std ``std`` (per joint), seeded per episode."""
+
+    def __init__(self, inner: Policy, std: torch.Tensor):
+        self.inner, self.std = inner, std.float()
+        self.groups, self.action_mapping = inner.groups, inner.action_mapping
+        self.name = f"{inner.name} + noise"
+        self._rng: dict[int, np.random.Generator] = {}
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        if seeds is None:
+            raise ValueError("Noisy needs the episodes' seeds")
+        self.inner.reset(ids, seeds)
+        for i, s in zip(np.asarray(ids).tolist(), np.asarray(seeds).tolist(), strict=True):
+            self._rng[i] = np.random.default_rng([s, 7])
+
+    def act(self, obs, ids, contexts):
+        a = self.inner.act(obs, ids, contexts)
+        z = np.stack([self._rng[i].standard_normal(a.shape[1]) for i in np.asarray(ids).tolist()])
+        return a + self.std * torch.as_tensor(z, dtype=torch.float32)
+
+
+def trained_std(checkpoint: str) -> torch.Tensor:
+    """The state-independent action std of an rsl_rl PPO checkpoint (action units)."""
+    if not Path(checkpoint).is_file():
+        raise ValueError(f"{checkpoint} has no state-independent action std; --noise-scale needs a PPO checkpoint file")
+    sd = torch.load(checkpoint, map_location="cpu", weights_only=True).get("actor_state_dict", {})
+    if "distribution.std_param" in sd:
+        return sd["distribution.std_param"]
+    if "distribution.log_std_param" in sd:
+        return sd["distribution.log_std_param"].exp()
+    raise ValueError(f"{checkpoint} has no state-independent action std; --noise-scale needs a PPO checkpoint")
