@@ -1,12 +1,15 @@
 """Evaluate variants of learned policies that do not ship: a policy that samples its actions
-from its own training noise instead of acting with the mean, or an ensemble acting with the
-mean of its members' actions. Writes an ordinary ``selfright evaluate`` results folder, so
-``scripts/seed_table.py`` and ``scripts/failure_overlap.py`` read it.
+from its own training noise instead of acting with the mean, an ensemble acting with the
+mean of its members' actions, or a policy that hands over to a second one when it stalls.
+Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_table.py`` and
+``scripts/failure_overlap.py`` read it.
 
     python scripts/policy_variants.py --policies runs/flat_teacher/model_3445.pt --noise-scale 0.5 \\
         --grid flat --seed 4 --out results/flat_teacher_noisy_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --grid flat \\
         --seed 4 --out results/ensemble_s4
+    python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --fallback-s 9 \\
+        --grid flat --seed 4 --out results/fallback_s4
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
 ``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
@@ -24,7 +27,7 @@ from selfright.config import BenchmarkConfig
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
-from selfright.policies.variants import MeanOf, Noisy, trained_std
+from selfright.policies.variants import Fallback, MeanOf, Noisy, trained_std
 
 
 @dataclass(frozen=True)
@@ -38,6 +41,10 @@ class Args:
     seed: int = 0
     noise_scale: float = 0.0
     """Action noise as a multiple of the checkpoint's trained std (0 = the mean action)."""
+    fallback_s: float = 0.0
+    """With two policies: the second takes over for this long (s) whenever the first has
+    stalled, tilted over, for ``stall_s`` (``selfright.policies.variants.Fallback``); 0 = average them."""
+    stall_s: float = 0.5
 
 
 def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
@@ -48,6 +55,11 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
             raise ValueError("--noise-scale takes one policy")
         return Noisy(make_policy(a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
     members = [make_policy(p, cfg) for p in a.policies]
+    if a.fallback_s > 0:
+        if len(members) != 2:
+            raise ValueError("--fallback-s takes two policies")
+        dt = cfg.sim.control_dt_s
+        return Fallback(*members, stall_steps=round(a.stall_s / dt), hand_steps=round(a.fallback_s / dt))
     return members[0] if len(members) == 1 else MeanOf(members)
 
 
@@ -57,7 +69,8 @@ def main(a: Args) -> None:
         policy = make_variant(a, cfg)
     except ValueError as e:
         raise SystemExit(f"policy_variants: {e}") from None
-    name = " + ".join(a.policies) + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
+    name = (f" then (stalled {a.stall_s:g} s, for {a.fallback_s:g} s) ".join(a.policies) if a.fallback_s > 0
+            else " + ".join(a.policies)) + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -148,3 +148,25 @@ def test_onnx_policy_rows_do_not_depend_on_the_batch(tmp_path: Path):
     for start, size in [(0, 1), (3, 7), (10, 30)]:
         part = policy.act({"student": x[start : start + size]}, np.arange(size), [None] * size)
         assert torch.equal(part, batched[start : start + size])
+
+
+def test_fallback_hands_over_only_after_a_tilted_stall():
+    from selfright.policies.variants import Fallback
+
+    class Const(Policy):
+        groups = ("student",)
+
+        def __init__(self, v):
+            self.v = v
+
+        def act(self, obs, ids, contexts):
+            return torch.full((len(ids), 12), self.v)
+
+    fb = Fallback(Const(1.0), Const(2.0), stall_steps=2, hand_steps=3)
+    ids = np.arange(2)
+    fb.reset(ids)
+    obs = torch.zeros(2, 42)
+    obs[0, 2] = 1.0   # slot 0 on its back, still
+    obs[1, 2] = -1.0  # slot 1 upright, still
+    got = [fb.act({"student": obs}, ids, [None, None])[:, 0].tolist() for _ in range(6)]
+    assert got == [[1.0, 1.0], [2.0, 1.0], [2.0, 1.0], [2.0, 1.0], [1.0, 1.0], [2.0, 1.0]]

@@ -179,12 +179,14 @@ def test_policy_variants_noise_is_seeded_and_an_ensemble_of_one_policy_is_that_p
     common = ["--grid", "tiny", "--episodes", "1", "--seed", "3"]
     outs = {}
     for tag, extra in [("a", ["--policies", str(ckpt), "--noise-scale", "1"]), ("b", ["--policies", str(ckpt), "--noise-scale", "1"]),
-                       ("mean", ["--policies", str(ckpt)]), ("zero", ["--policies", "zero"]), ("zz", ["--policies", "zero", "zero"])]:
+                       ("mean", ["--policies", str(ckpt)]), ("zero", ["--policies", "zero"]), ("zz", ["--policies", "zero", "zero"]),
+                       ("fb", ["--policies", "zero", "random", "--fallback-s", "2"])]:
         outs[tag] = tmp_path / tag
         run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
     assert "noise x1" in capsys.readouterr().out
     assert rows(outs["a"]) == rows(outs["b"]) and rows(outs["a"]) != rows(outs["mean"])
     assert rows(outs["zz"]) == rows(outs["zero"])
+    assert rows(outs["fb"]) != rows(outs["zero"])  # the held pose stalls tilted; random actions take over
     with pytest.raises(SystemExit, match="no state-independent action std"):
         run_script("policy_variants.py", [*common, "--policies", "zero", "--noise-scale", "1", "--out", str(tmp_path / "x")], monkeypatch)
 

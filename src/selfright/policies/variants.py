@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from selfright.env.observations import JOINT_VEL_SCALE
 from selfright.policies.base import Policy
 
 
@@ -62,3 +63,47 @@ def trained_std(checkpoint: str) -> torch.Tensor:
     if "distribution.log_std_param" in sd:
         return sd["distribution.log_std_param"].exp()
     raise ValueError(f"{checkpoint} has no state-independent action std; --noise-scale needs a PPO checkpoint")
+
+
+class Fallback(Policy):
+    """``first`` acts until the robot stalls, then ``second`` takes over for ``hand_steps``
+    control steps (then ``first`` again). Stalled = tilted more than 30° from upright (the
+    IMU's projected gravity), with the joint velocities' norm under 1 rad/s and the trunk's
+    angular speed under 0.5 rad/s, for ``stall_steps`` steps in a row. Reads the student
+    observation's columns, which the teacher's starts with (12-joint robots)."""
+
+    QD = slice(18, 30)
+    """Joint velocities × ``JOINT_VEL_SCALE`` in the student observation."""
+
+    def __init__(self, first: Policy, second: Policy, stall_steps: int = 25, hand_steps: int = 50):
+        self.first, self.second = first, second
+        self.groups = tuple(sorted(set(first.groups) | set(second.groups)))
+        self.action_mapping = first.action_mapping
+        self.name = f"{first.name}, then {second.name} when stalled"
+        self.stall_steps, self.hand_steps = stall_steps, hand_steps
+        self._still: dict[int, int] = {}
+        self._left: dict[int, int] = {}
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.first.reset(ids, seeds)
+        self.second.reset(ids, seeds)
+        for i in np.asarray(ids).tolist():
+            self._still[i] = self._left[i] = 0
+
+    def act(self, obs, ids, contexts):
+        x = obs["student"] if "student" in obs else obs["teacher"]
+        upright = (-x[:, 2] >= np.cos(np.radians(30.0))).tolist()
+        still = ((x[:, self.QD].norm(dim=1) / JOINT_VEL_SCALE < 1.0) & (x[:, 3:6].norm(dim=1) < 0.5)).tolist()
+        hand = np.zeros(len(ids), bool)
+        for k, i in enumerate(np.asarray(ids).tolist()):
+            if self._left[i] > 0:
+                self._left[i] -= 1
+                hand[k] = True
+                continue
+            self._still[i] = self._still[i] + 1 if still[k] and not upright[k] else 0
+            if self._still[i] >= self.stall_steps:
+                self._still[i], self._left[i], hand[k] = 0, self.hand_steps - 1, True
+        out = self.first.act(obs, ids, contexts)
+        if hand.any():  # per-row actions do not depend on the batch: compute both, pick
+            out = torch.where(torch.from_numpy(hand)[:, None], self.second.act(obs, ids, contexts), out)
+        return out
