@@ -104,6 +104,8 @@ class Fallback(Policy):
             if self._still[i] >= self.stall_steps:
                 self._still[i], self._left[i], hand[k] = 0, self.hand_steps - 1, True
         out = self.first.act(obs, ids, contexts)
-        if hand.any():  # per-row actions do not depend on the batch: compute both, pick
-            out = torch.where(torch.from_numpy(hand)[:, None], self.second.act(obs, ids, contexts), out)
+        if hand.any():  # only the handed-over rows reach ``second`` (it may keep per-slot state)
+            rows = torch.from_numpy(hand)
+            sub = {g: v[rows] for g, v in obs.items()}
+            out[rows] = self.second.act(sub, np.asarray(ids)[hand], [c for c, h in zip(contexts, hand, strict=True) if h])
         return out
