@@ -292,3 +292,30 @@ def test_stuck_end_state_is_the_final_state(flat_worlds):
         np.testing.assert_allclose(env.slot_factors[i], e.factors)
         assert float(env.env.friction[i]) == pytest.approx(e.factors[0], rel=1e-6)
     env.close()
+
+
+def test_stuck_restarts_can_keep_only_tilted_end_states(flat_worlds):
+    """With restart_tilted_only an upright end state (here: every slot is upright after the
+    first steps of a settled stand) is not kept; tilted ones are."""
+    kept = {}
+    for tilted_only in (False, True):
+        ep = EpisodeConfig(episode_s=0.1, restart_stuck=1.0, restart_tilted_only=tilted_only, prepare_starts=False)
+        env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=6, seed=4)
+        kept[tilted_only] = []
+        put = env.stuck_ends.put
+        env.stuck_ends.put = lambda e, k=kept[tilted_only], put=put: k.append(e) or put(e)
+        with torch.inference_mode():
+            for _ in range(5):
+                env.step(torch.zeros(6, 12))
+        env.close()
+    quat = env.env.sl.quat
+    up = [mujoco_up_z(e.state[quat]) for e in kept[False]]
+    limit = np.cos(np.radians(CFG.goal.max_tilt_deg))
+    assert 0 < len(kept[True]) <= sum(u < limit for u in up) < len(kept[False])  # some upright, some not
+    assert all(mujoco_up_z(e.state[quat]) < limit for e in kept[True])
+
+
+def mujoco_up_z(q: np.ndarray) -> float:
+    """World z of the body's up axis for a (w, x, y, z) quaternion."""
+    w, x, y, z = q
+    return 1.0 - 2.0 * (x * x + y * y)

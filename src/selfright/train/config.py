@@ -61,6 +61,9 @@ class EpisodeConfig:
     starts. Unlike ``replay_failed`` these starts are not draws of the seed's fall protocol.
     Up to ``num_envs`` end states are kept; each is used once, picked at random. Under Table
     I it sped the flat teacher's drift into the crouch (docs/training.md)."""
+    restart_tilted_only: bool = False
+    """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
+    limit (lying on the back or side), not upright ones such as a crouch under the bar."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the

@@ -24,6 +24,7 @@ learns to keep standing.
 from __future__ import annotations
 
 import copy
+import math
 from collections import deque
 
 import mujoco
@@ -99,6 +100,7 @@ class RecoveryVecEnv(VecEnv):
         self.replay_share = ep.replay_failed
         self.restart_share = ep.restart_stuck
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
+        self.tilted_only = ep.restart_tilted_only
         self.stuck_ends = StuckEnds(num_envs)
         """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
         self.slot_factors = np.ones((num_envs, 4))
@@ -220,6 +222,10 @@ class RecoveryVecEnv(VecEnv):
         (``excluded``: diverged or off the tile, whose end says nothing useful)."""
         stuck = ~self._ended_in_goal(ids) & ~excluded[ids]
         env = self.env
+        if self.tilted_only and stuck.any():
+            rs = env.robot_state(ids.numpy())
+            limit = math.radians(env.cfg.goal.max_tilt_deg)
+            stuck &= (rs.roll.abs() > limit) | (rs.pitch.abs() > limit)
         for i in ids[stuck].tolist():
             factors = self.slot_factors[i].copy() if self.randomizer is not None else None
             self.stuck_ends.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy()))
