@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 from rsl_rl.runners import OnPolicyRunner
 
@@ -305,3 +306,5 @@ def test_state_dependent_std_starts_as_the_source_policy_and_deploys_its_mean(tm
         torch.testing.assert_close(policy.act(obs, np.arange(4), [None] * 4), trained(obs)[:, :12], atol=1e-5, rtol=0)
     s = run(spec(tmp_path / "student", role="student", teacher=sds))
     assert all(math.isfinite(v) for v in s.last_loss.values())
+    with pytest.raises(ValueError, match="state-dependent-std"):
+        TrainingRun(spec(tmp_path / "plain", init_from=sds)).setup()

@@ -1,6 +1,7 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
-actions from its training noise instead of acting with the mean, and an ensemble acting with
-the mean of its members' actions (``scripts/policy_variants.py``)."""
+actions from its training noise instead of acting with the mean, an ensemble acting with the
+mean of its members' actions, and one that hands over to a second policy when it stalls
+(``scripts/policy_variants.py``)."""
 
 from __future__ import annotations
 

@@ -236,6 +236,8 @@ class TrainingRun:
             source = torch.load(init, map_location=self.spec.device, weights_only=False)
             if s.train.policy.state_dependent_std:
                 source["actor_state_dict"] = with_std_head(source["actor_state_dict"])
+            elif not any(k.startswith("distribution.") for k in source["actor_state_dict"]):
+                raise ValueError(f"--init-from {init} has a state-dependent action std; add --train.policy.state-dependent-std")
             r.alg.load(source, {"actor": True, "critic": True}, True)
             self.init_ckpt = init
             _warn_symmetry_on_init(s.train, init_meta, init)
