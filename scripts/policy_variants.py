@@ -28,6 +28,7 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
 from selfright.policies.variants import Fallback, MeanOf, Noisy, trained_std
+from selfright.robots import get_robot
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,10 @@ class Args:
     """With two policies: the second takes over for this long (s) whenever the first has
     stalled, tilted over, for ``stall_s`` (``selfright.policies.variants.Fallback``); 0 = average them."""
     stall_s: float = 0.5
+    """How long the first policy must have lain still before the second takes over (s)."""
+    stall_below_bar: bool = False
+    """Also hand over when the robot stands or sits still upright with its trunk under the
+    goal bar (read from the privileged teacher observation)."""
 
 
 def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
@@ -59,7 +64,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         if len(members) != 2:
             raise ValueError("--fallback-s takes two policies")
         dt = cfg.sim.control_dt_s
-        return Fallback(*members, stall_steps=round(a.stall_s / dt), hand_steps=round(a.fallback_s / dt))
+        bar = cfg.goal.height_fraction * get_robot(cfg.robot.name).leg_length_m if a.stall_below_bar else None
+        return Fallback(*members, stall_steps=round(a.stall_s / dt), hand_steps=round(a.fallback_s / dt), bar_m=bar)
     return members[0] if len(members) == 1 else MeanOf(members)
 
 

@@ -170,3 +170,42 @@ def test_fallback_hands_over_only_after_a_tilted_stall():
     obs[1, 2] = -1.0  # slot 1 upright, still
     got = [fb.act({"student": obs}, ids, [None, None])[:, 0].tolist() for _ in range(6)]
     assert got == [[1.0, 1.0], [2.0, 1.0], [2.0, 1.0], [2.0, 1.0], [1.0, 1.0], [2.0, 1.0]]
+
+
+def test_teacher_height_column_is_the_trunk_height():
+    from selfright.config import BenchmarkConfig
+    from selfright.env.observations import teacher_height_column
+    from selfright.env.recovery_env import RecoveryEnv
+    from selfright.env.world import build_world
+    from selfright.evaluate.runner import context_config
+    from selfright.terrain.grid import grid_cells
+
+    cfg = BenchmarkConfig()
+    cell = grid_cells("tiny", cfg.terrain)[3]
+    env = RecoveryEnv(cfg, [build_world(cell, cfg, context_config(cfg), 0)], 2)
+    ids = np.arange(2)
+    env.reset(ids, np.zeros(2, int), [np.random.default_rng(s) for s in (1, 2)])
+    obs = env.observe(ids, ("teacher",))["teacher"]
+    torch.testing.assert_close(obs[:, teacher_height_column(12)], env.robot_state(ids).height.float())
+    env.close()
+
+
+def test_fallback_with_a_bar_counts_a_low_upright_stall():
+    from selfright.policies.variants import Fallback
+
+    class Const(Policy):
+        groups = ("teacher",)
+
+        def __init__(self, v):
+            self.v = v
+
+        def act(self, obs, ids, contexts):
+            return torch.full((len(ids), 12), self.v)
+
+    fb = Fallback(Const(1.0), Const(2.0), stall_steps=1, hand_steps=1, bar_m=0.32)
+    ids = np.arange(2)
+    fb.reset(ids)
+    obs = torch.zeros(2, 79)
+    obs[:, 2] = -1.0  # both upright and still
+    obs[:, Fallback.HEIGHT] = torch.tensor([0.2, 0.35])  # slot 0 sits low, slot 1 stands
+    assert fb.act({"teacher": obs}, ids, [None, None])[:, 0].tolist() == [2.0, 1.0]

@@ -56,6 +56,12 @@ def prev_action_columns(num_joints: int) -> slice:
     return slice(6 + 2 * num_joints, 6 + 3 * num_joints)
 
 
+def teacher_height_column(num_joints: int) -> int:
+    """Column of the trunk height above the ground in the teacher observation (student,
+    slope angle, uphill direction, friction, trunk linear velocity, then the height)."""
+    return 6 + 3 * num_joints + 1 + 3 + 1 + 3
+
+
 def privileged_obs(
     rs: RobotState, slope_pct: torch.Tensor, friction: torch.Tensor, scan_z: torch.Tensor, factors: torch.Tensor
 ) -> torch.Tensor:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from selfright.env.observations import JOINT_VEL_SCALE
+from selfright.env.observations import JOINT_VEL_SCALE, teacher_height_column
 from selfright.policies.base import Policy
 
 
@@ -70,15 +70,21 @@ class Fallback(Policy):
     """``first`` acts until the robot stalls, then ``second`` takes over for ``hand_steps``
     control steps (then ``first`` again). Stalled = tilted more than 30° from upright (the
     IMU's projected gravity), with the joint velocities' norm under 1 rad/s and the trunk's
-    angular speed under 0.5 rad/s, for ``stall_steps`` steps in a row. Reads the student
-    observation's columns, which the teacher's starts with (12-joint robots)."""
+    angular speed under 0.5 rad/s, for ``stall_steps`` steps in a row. With ``bar_m`` an
+    upright robot whose trunk is lower than that (the teacher observation's height, a
+    privileged reading) counts as stalled too. Reads the student observation's columns, which
+    the teacher's starts with (12-joint robots)."""
 
     QD = slice(18, 30)
     """Joint velocities × ``JOINT_VEL_SCALE`` in the student observation."""
+    HEIGHT = teacher_height_column(12)
 
-    def __init__(self, first: Policy, second: Policy, stall_steps: int = 25, hand_steps: int = 50):
-        self.first, self.second = first, second
-        self.groups = tuple(sorted(set(first.groups) | set(second.groups)))
+    def __init__(
+        self, first: Policy, second: Policy, stall_steps: int = 25, hand_steps: int = 50, bar_m: float | None = None
+    ):
+        self.first, self.second, self.bar_m = first, second, bar_m
+        extra = {"teacher"} if bar_m is not None else set()
+        self.groups = tuple(sorted(set(first.groups) | set(second.groups) | extra))
         self.action_mapping = first.action_mapping
         self.name = f"{first.name}, then {second.name} when stalled"
         self.stall_steps, self.hand_steps = stall_steps, hand_steps
@@ -92,8 +98,11 @@ class Fallback(Policy):
             self._still[i] = self._left[i] = 0
 
     def act(self, obs, ids, contexts):
-        x = obs["student"] if "student" in obs else obs["teacher"]
-        upright = (-x[:, 2] >= np.cos(np.radians(30.0))).tolist()
+        x = obs["teacher"] if "teacher" in obs else obs["student"]
+        upright = -x[:, 2] >= np.cos(np.radians(30.0))
+        if self.bar_m is not None:
+            upright &= x[:, self.HEIGHT] >= self.bar_m  # upright but low is a stall too
+        upright = upright.tolist()
         still = ((x[:, self.QD].norm(dim=1) / JOINT_VEL_SCALE < 1.0) & (x[:, 3:6].norm(dim=1) < 0.5)).tolist()
         hand = np.zeros(len(ids), bool)
         for k, i in enumerate(np.asarray(ids).tolist()):
