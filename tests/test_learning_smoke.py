@@ -308,3 +308,33 @@ def test_state_dependent_std_starts_as_the_source_policy_and_deploys_its_mean(tm
     assert all(math.isfinite(v) for v in s.last_loss.values())
     with pytest.raises(ValueError, match="state-dependent-std"):
         TrainingRun(spec(tmp_path / "plain", init_from=sds)).setup()
+
+
+def test_student_distils_from_a_teacher_with_a_stall_fallback(tmp_path: Path):
+    """--train.distillation.fallback-teacher: the composite labels with the second teacher once
+    the robot has lain still, per env; a resumed student keeps both teachers."""
+    from selfright.train.fallback_teacher import StallFallbackTeacher
+
+    run(spec(tmp_path / "a"))
+    run(spec(tmp_path / "b", seed=1))
+    train = dataclasses.replace(TINY, distillation=dataclasses.replace(
+        TINY.distillation, fallback_teacher=str(tmp_path / "b"), stall_s=0.02, fallback_s=0.04))
+    r = run(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train))
+    teacher = r.runner.alg.teacher
+    assert isinstance(teacher, StallFallbackTeacher) and all(math.isfinite(v) for v in r.last_loss.values())
+    # A robot lying still on its back: the second teacher labels from the first stalled step, for 2 steps.
+    obs = r.env.get_observations()
+    x = obs["teacher"].clone()
+    x[:, 2], x[:, 3:6], x[:, 18:30] = 1.0, 0.0, 0.0
+    obs["teacher"] = x
+    teacher.reset(torch.ones(4, dtype=torch.bool))
+    a, b = teacher.primary(obs), teacher.fallback(obs)
+    got = [teacher(obs) for _ in range(3)]
+    torch.testing.assert_close(got[0], b)
+    torch.testing.assert_close(got[1], b)
+    torch.testing.assert_close(got[2], b)  # still lying: a new stall is detected at once (stall_s = one step)
+    resumed = TrainingRun(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train, iterations=2, resume=True))
+    resumed.setup()
+    assert isinstance(resumed.runner.alg.teacher, StallFallbackTeacher)
+    torch.testing.assert_close(resumed.runner.alg.teacher.fallback(obs), b)
+    assert not torch.equal(a, b)

@@ -174,6 +174,14 @@ class DistillationConfig:
     current one only). The issue allows a short history: on the incline a lying robot cannot
     tell the slope from one IMU reading, while a few frames show which way it slides.
     Deployment stacks frames the same way (``selfright.policies.history``)."""
+    fallback_teacher: str | None = None
+    """A second teacher checkpoint that labels the states where the robot has stalled under
+    the first (``selfright.train.fallback_teacher``): still for ``stall_s`` while tilted more
+    than 30° or under the goal bar, then for ``fallback_s``. None = one teacher."""
+    fallback_s: float = 2.0
+    """How long the fallback teacher labels after a stall (s)."""
+    stall_s: float = 0.5
+    """How long the robot must have been still before the fallback teacher labels (s)."""
     student_init_std: float = 0.1
     """Action noise of the student while it collects its own rollouts (action units)."""
 

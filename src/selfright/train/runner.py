@@ -13,6 +13,7 @@ Run directory layout (``--out``)::
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import json
 import os
@@ -41,6 +42,7 @@ from selfright.train.checkpoints import (
 )
 from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
+from selfright.train.fallback_teacher import StallFallbackTeacher
 from selfright.train.vecenv import RecoveryVecEnv
 
 PROGRESS_EVERY_S = 10.0
@@ -225,9 +227,14 @@ class TrainingRun:
             is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
             device=r.device, hook=self._on_iteration,
         )
+        fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
+        if fallback is not None:
+            self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
         if self.resume_ckpt is not None:
             r.load(str(self.resume_ckpt))
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
+        elif s.role == "student" and fallback is not None:
+            pass  # both teachers loaded above
         elif s.role == "student":
             r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.init_from is not None:
@@ -250,6 +257,31 @@ class TrainingRun:
         self.base_steps = int(self.prev_meta.get("env_steps", 0))
         self.base_wall = float(self.prev_meta.get("wall_clock_s", 0.0))
         self.t0 = time.time()
+
+    def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
+        """Replace rsl_rl's teacher by ``StallFallbackTeacher`` (the ``--teacher`` and the
+        fallback checkpoint, same network); loads both unless a resumed checkpoint will."""
+        s, alg = self.spec, self.runner.alg
+        d = s.train.distillation
+        ckpt = latest_checkpoint(path)
+        primary, second = alg.teacher, copy.deepcopy(alg.teacher)
+        weights = torch.load(ckpt, map_location=s.device, weights_only=False).get("actor_state_dict")
+        if weights is None:
+            raise ValueError(f"--train.distillation.fallback-teacher {path}: not a teacher checkpoint")
+        try:
+            second.load_state_dict(weights)
+            if load_primary:
+                primary.load_state_dict(torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)["actor_state_dict"])
+        except RuntimeError as e:
+            raise ValueError(f"--train.distillation.fallback-teacher {path} must have the --teacher's network: {e}") from None
+        dt = s.bench.sim.control_dt_s
+        bar = s.bench.goal.height_fraction * self.env.env.robot.leg_length_m
+        composite = StallFallbackTeacher(
+            primary, second, s.num_envs, self.env.env.robot.num_joints,
+            stall_steps=round(d.stall_s / dt), hand_steps=round(d.fallback_s / dt), bar_m=bar,
+        ).to(s.device).eval()
+        alg.teacher = alg._raw_teacher = composite
+        alg.teacher_loaded = True
 
     @staticmethod
     def _saved_iteration(ckpt: Path) -> int:
