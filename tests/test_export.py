@@ -150,19 +150,20 @@ def test_onnx_policy_rows_do_not_depend_on_the_batch(tmp_path: Path):
         assert torch.equal(part, batched[start : start + size])
 
 
+class _Const(Policy):
+    """Acts with the same value on every joint."""
+
+    def __init__(self, v):
+        self.v = v
+
+    def act(self, obs, ids, contexts):
+        return torch.full((len(ids), 12), self.v)
+
+
 def test_fallback_hands_over_only_after_a_tilted_stall():
     from selfright.policies.variants import Fallback
 
-    class Const(Policy):
-        groups = ("student",)
-
-        def __init__(self, v):
-            self.v = v
-
-        def act(self, obs, ids, contexts):
-            return torch.full((len(ids), 12), self.v)
-
-    fb = Fallback(Const(1.0), Const(2.0), stall_steps=2, hand_steps=3)
+    fb = Fallback(_Const(1.0), _Const(2.0), stall_steps=2, hand_steps=3)
     ids = np.arange(2)
     fb.reset(ids)
     obs = torch.zeros(2, 42)
@@ -193,16 +194,7 @@ def test_teacher_height_column_is_the_trunk_height():
 def test_fallback_with_a_bar_counts_a_low_upright_stall():
     from selfright.policies.variants import Fallback
 
-    class Const(Policy):
-        groups = ("teacher",)
-
-        def __init__(self, v):
-            self.v = v
-
-        def act(self, obs, ids, contexts):
-            return torch.full((len(ids), 12), self.v)
-
-    fb = Fallback(Const(1.0), Const(2.0), stall_steps=1, hand_steps=1, bar_m=0.32)
+    fb = Fallback(_Const(1.0), _Const(2.0), stall_steps=1, hand_steps=1, bar_m=0.32)
     ids = np.arange(2)
     fb.reset(ids)
     obs = torch.zeros(2, 79)
