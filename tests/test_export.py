@@ -192,6 +192,7 @@ def test_teacher_height_column_is_the_trunk_height():
 
 
 def test_fallback_with_a_bar_counts_a_low_upright_stall():
+    from selfright.env.observations import teacher_height_column
     from selfright.policies.variants import Fallback
 
     fb = Fallback(_Const(1.0), _Const(2.0), stall_steps=1, hand_steps=1, bar_m=0.32)
@@ -199,5 +200,5 @@ def test_fallback_with_a_bar_counts_a_low_upright_stall():
     fb.reset(ids)
     obs = torch.zeros(2, 79)
     obs[:, 2] = -1.0  # both upright and still
-    obs[:, Fallback.HEIGHT] = torch.tensor([0.2, 0.35])  # slot 0 sits low, slot 1 stands
+    obs[:, teacher_height_column(12)] = torch.tensor([0.2, 0.35])  # slot 0 sits low, slot 1 stands
     assert fb.act({"teacher": obs}, ids, [None, None])[:, 0].tolist() == [2.0, 1.0]

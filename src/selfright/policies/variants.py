@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from selfright.env.observations import JOINT_VEL_SCALE, teacher_height_column
 from selfright.policies.base import Policy
+from selfright.policies.stall import StallSwitch
 
 
 class MeanOf(Policy):
@@ -68,54 +68,31 @@ def trained_std(checkpoint: str) -> torch.Tensor:
 
 class Fallback(Policy):
     """``first`` acts until the robot stalls, then ``second`` takes over for ``hand_steps``
-    control steps (then ``first`` again). Stalled = tilted more than 30° from upright (the
-    IMU's projected gravity), with the joint velocities' norm under 1 rad/s and the trunk's
-    angular speed under 0.5 rad/s, for ``stall_steps`` steps in a row. With ``bar_m`` an
-    upright robot whose trunk is lower than that (the teacher observation's height, a
-    privileged reading) counts as stalled too. Reads the student observation's columns, which
-    the teacher's starts with (12-joint robots)."""
-
-    QD = slice(18, 30)
-    """Joint velocities × ``JOINT_VEL_SCALE`` in the student observation."""
-    HEIGHT = teacher_height_column(12)
+    control steps (then ``first`` again): the rule of ``selfright.policies.stall``. With
+    ``bar_m`` an upright robot whose trunk is lower than that counts as stalled too (read from
+    the teacher observation, which is then computed)."""
 
     def __init__(
         self, first: Policy, second: Policy, stall_steps: int = 25, hand_steps: int = 50, bar_m: float | None = None
     ):
-        self.first, self.second, self.bar_m = first, second, bar_m
+        self.first, self.second = first, second
         extra = {"teacher"} if bar_m is not None else set()
         self.groups = tuple(sorted(set(first.groups) | set(second.groups) | extra))
         self.action_mapping = first.action_mapping
         self.name = f"{first.name}, then {second.name} when stalled"
-        self.stall_steps, self.hand_steps = stall_steps, hand_steps
-        self._still: dict[int, int] = {}
-        self._left: dict[int, int] = {}
+        self.switch = StallSwitch(stall_steps, hand_steps, bar_m)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.first.reset(ids, seeds)
         self.second.reset(ids, seeds)
-        for i in np.asarray(ids).tolist():
-            self._still[i] = self._left[i] = 0
+        self.switch.reset(torch.as_tensor(np.asarray(ids), dtype=torch.long))
 
     def act(self, obs, ids, contexts):
         x = obs["teacher"] if "teacher" in obs else obs["student"]
-        upright = -x[:, 2] >= np.cos(np.radians(30.0))
-        if self.bar_m is not None:
-            upright &= x[:, self.HEIGHT] >= self.bar_m  # upright but low is a stall too
-        upright = upright.tolist()
-        still = ((x[:, self.QD].norm(dim=1) / JOINT_VEL_SCALE < 1.0) & (x[:, 3:6].norm(dim=1) < 0.5)).tolist()
-        hand = np.zeros(len(ids), bool)
-        for k, i in enumerate(np.asarray(ids).tolist()):
-            if self._left[i] > 0:
-                self._left[i] -= 1
-                hand[k] = True
-                continue
-            self._still[i] = self._still[i] + 1 if still[k] and not upright[k] else 0
-            if self._still[i] >= self.stall_steps:
-                self._still[i], self._left[i], hand[k] = 0, self.hand_steps - 1, True
+        rows = self.switch.step(x, torch.as_tensor(np.asarray(ids), dtype=torch.long))
         out = self.first.act(obs, ids, contexts)
-        if hand.any():  # only the handed-over rows reach ``second`` (it may keep per-slot state)
-            rows = torch.from_numpy(hand)
+        if rows.any():  # only the handed-over rows reach ``second`` (it may keep per-slot state)
+            hand = rows.numpy()
             sub = {g: v[rows] for g, v in obs.items()}
             out[rows] = self.second.act(sub, np.asarray(ids)[hand], [c for c, h in zip(contexts, hand, strict=True) if h])
         return out
