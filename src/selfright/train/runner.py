@@ -233,10 +233,9 @@ class TrainingRun:
         if self.resume_ckpt is not None:
             r.load(str(self.resume_ckpt))
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
-        elif s.role == "student" and fallback is not None:
-            pass  # both teachers loaded above
         elif s.role == "student":
-            r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
+            if fallback is None:  # (with a fallback both teachers are loaded above)
+                r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.init_from is not None:
             init = latest_checkpoint(s.init_from)
             _, init_meta = teacher_policy_config(init, s.train.policy)  # refuses student runs
