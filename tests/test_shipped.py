@@ -40,9 +40,13 @@ def test_shipped_policy_onnx_matches_torch(name: str, tmp_path: Path):
     actor = load_actor_file(CHECKPOINT_DIR / f"{name}.pt")
     export_onnx(actor, tmp_path / f"{name}.onnx")
     onnx_policy = load_policy_file(tmp_path / f"{name}.onnx")
+    frames = actor.meta.obs_history
     x = torch.randn(64, actor.meta.obs_dim, generator=torch.Generator().manual_seed(0))
     group = actor.meta.obs_group
-    out = onnx_policy.act({group: x}, np.arange(64), [None] * 64)
+    # A policy with an H-frame history takes one frame per call and stacks the last H itself
+    # (oldest first), so feed the stacked input frame by frame.
+    for frame in x.chunk(frames, dim=1):
+        out = onnx_policy.act({group: frame}, np.arange(64), [None] * 64)
     with torch.no_grad():
         torch.testing.assert_close(out, actor(x), atol=1e-5, rtol=0)
 
