@@ -71,10 +71,12 @@ case $stage in
       run "runs/${c}_student" --role student --context "$c" --teacher "runs/${c}_teacher" --physics-threads 1 \
         --iterations 600 $(has_ckpt "runs/${c}_student" && echo --resume) &
     done
-    # The shipped incline student was distilled with 4x the batch (25 min on the 2 cores beside
-    # another run); its iteration 555 ships (chosen on validation seed 1, docs/training.md).
+    # The shipped incline student was distilled with 4x the batch and a 25-frame (0.5 s) history;
+    # its iteration 170 ships (chosen on seeds 0-11, measured on seeds 12-19: docs/training.md),
+    # so the run stops there and `ship` takes its last checkpoint.
     ENVS=512 run runs/incline_student --role student --context incline --teacher runs/incline_teacher \
-      --physics-threads 1 --iterations 556 --action-reference tall $(has_ckpt runs/incline_student && echo --resume) &
+      --physics-threads 2 --iterations 171 --action-reference tall --train.distillation.student-history 25 \
+      $(has_ckpt runs/incline_student && echo --resume) &
     wait
     ;;
   ship)
