@@ -26,6 +26,7 @@ import numpy as np
 import torch
 import tyro
 
+from selfright.env.goal import goal_height_m
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.registry import make_policy
@@ -35,7 +36,7 @@ def main(a: ReplayArgs) -> None:
     cfg = a.bench_config()
     policy = make_policy(a.policy, cfg)
     env, cells = replay_env(a, cfg)
-    bar = cfg.goal.height_fraction * env.robot.leg_length_m
+    bar = goal_height_m(cfg.goal, env.robot.leg_length_m)
     tilt = math.radians(cfg.goal.max_tilt_deg)
     for k, cell in enumerate(cells):
         classes: Counter[str] = Counter()

@@ -24,6 +24,7 @@ from pathlib import Path
 import tyro
 
 from selfright.config import BenchmarkConfig
+from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
@@ -64,7 +65,7 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         if len(members) != 2:
             raise ValueError("--fallback-s takes two policies")
         dt = cfg.sim.control_dt_s
-        bar = cfg.goal.height_fraction * get_robot(cfg.robot.name).leg_length_m if a.stall_below_bar else None
+        bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
         return Fallback(*members, stall_steps=round(a.stall_s / dt), hand_steps=round(a.fallback_s / dt), bar_m=bar)
     return members[0] if len(members) == 1 else MeanOf(members)
 

@@ -20,6 +20,7 @@ import numpy as np
 import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig
+from selfright.env.goal import goal_height_m
 from selfright.env.world import build_world
 from selfright.robots import get_robot
 from selfright.terrain.grid import grid_cells
@@ -55,7 +56,7 @@ def clear_fraction(tile, bar_m: float, heights: tuple[float, ...], samples: int,
 def main(a: Args) -> None:
     cfg = BenchmarkConfig()
     robot = get_robot(cfg.robot.name)
-    bar = cfg.goal.height_fraction * robot.leg_length_m
+    bar = goal_height_m(cfg.goal, robot.leg_length_m)
     rng = np.random.default_rng(a.seed)
     print(f"goal bar {bar:.3f} m above the ground beneath the trunk; robot stand height {robot.stand_height_m} m")
     print("slope%  rough_lvl  extent_m  " + "  ".join(f"h={h:.2f}" for h in a.heights))

@@ -9,6 +9,11 @@ import torch
 from selfright.config import GoalConfig
 
 
+def goal_height_m(cfg: GoalConfig, leg_length_m: float) -> float:
+    """The goal set's height bar: ``height_fraction`` × the fully extended leg length (m)."""
+    return cfg.height_fraction * leg_length_m
+
+
 def in_goal_set(
     roll: torch.Tensor,
     pitch: torch.Tensor,
@@ -29,7 +34,7 @@ def in_goal_set(
     """
     tilt = math.radians(cfg.max_tilt_deg)
     upright = (roll.abs() <= tilt) & (pitch.abs() <= tilt)
-    return upright & feet_contact.all(dim=-1) & (height >= cfg.height_fraction * leg_length_m)
+    return upright & feet_contact.all(dim=-1) & (height >= goal_height_m(cfg, leg_length_m))
 
 
 class GoalTracker:

@@ -50,6 +50,12 @@ def student_obs(rs: RobotState, nominal: torch.Tensor, prev_action: torch.Tensor
     )
 
 
+def joint_vel_columns(num_joints: int) -> slice:
+    """Columns of the joint velocities (× ``JOINT_VEL_SCALE``) in the student observation (and
+    in the teacher's, which starts with it)."""
+    return slice(6 + num_joints, 6 + 2 * num_joints)
+
+
 def prev_action_columns(num_joints: int) -> slice:
     """Columns of the previous action in the student observation (and in the teacher's, which
     starts with it)."""

@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.goal import in_goal_set
+from selfright.env.goal import goal_height_m, in_goal_set
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.robot_state import RobotState
 from selfright.env.world import build_world
@@ -115,7 +115,7 @@ def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: in
         cell=cell, episode=episode, episode_seed=ep_seed, states=np.stack(states), trace=trace,
         success=ok, ttr_s=float(m["ttr_s"][0]) if ok else None, dtr_m=float(m["dtr_m"][0]) if ok else None,
         diverged=bool(m["diverged"][0]), scene_xml=world.xml,
-        goal_height_m=cfg.goal.height_fraction * env.robot.leg_length_m,
+        goal_height_m=goal_height_m(cfg.goal, env.robot.leg_length_m),
     )
 
 

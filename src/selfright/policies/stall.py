@@ -16,7 +16,7 @@ import math
 
 import torch
 
-from selfright.env.observations import JOINT_VEL_SCALE, teacher_height_column
+from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, teacher_height_column
 
 TILT_DEG = 30.0
 JOINT_SPEED_RAD_S = 1.0
@@ -29,7 +29,7 @@ class StallSwitch:
 
     def __init__(self, stall_steps: int, hand_steps: int, bar_m: float | None = None, num_joints: int = 12):
         self.stall_steps, self.hand_steps, self.bar_m = stall_steps, hand_steps, bar_m
-        self.qd = slice(6 + num_joints, 6 + 2 * num_joints)
+        self.qd = joint_vel_columns(num_joints)
         self.height = teacher_height_column(num_joints)
         self._still = torch.zeros(0, dtype=torch.long)
         self._left = torch.zeros(0, dtype=torch.long)

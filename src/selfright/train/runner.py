@@ -32,6 +32,7 @@ from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
+from selfright.env.goal import goal_height_m
 from selfright.train.checkpoints import (
     CHECKPOINT_RE,
     META_FILE,
@@ -274,7 +275,7 @@ class TrainingRun:
         except RuntimeError as e:
             raise ValueError(f"--train.distillation.fallback-teacher {path} must have the --teacher's network: {e}") from None
         dt = s.bench.sim.control_dt_s
-        bar = s.bench.goal.height_fraction * self.env.env.robot.leg_length_m
+        bar = goal_height_m(s.bench.goal, self.env.env.robot.leg_length_m)
         composite = StallFallbackTeacher(
             primary, second, s.num_envs, self.env.env.robot.num_joints,
             stall_steps=round(d.stall_s / dt), hand_steps=round(d.fallback_s / dt), bar_m=bar,
