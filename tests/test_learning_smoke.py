@@ -279,6 +279,46 @@ def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path
     assert "its last 2 frames stacked" in (dest / "flat.md").read_text()
 
 
+def test_gru_student_trains_exports_and_deploys_the_same(tmp_path: Path):
+    """A recurrent (GRU) student: rsl_rl trains it; its checkpoint, policy file and ONNX graph
+    keep a hidden state per env slot, zeroed by ``reset``, and agree with rsl_rl's model."""
+    from tensordict import TensorDict
+
+    teacher = tmp_path / "teacher"
+    run(spec(teacher))
+    train = dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, student_gru=8))
+    student = tmp_path / "student"
+    r = run(spec(student, role="student", teacher=teacher, train=train))
+    assert all(math.isfinite(v) for v in r.last_loss.values())
+    assert json.loads((student / "train_meta.json").read_text())["policy"]["gru_dim"] == 8
+    onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
+    model = r.runner.alg.student
+    model.eval()
+    frames = torch.randn(4, 2, 42, generator=torch.Generator().manual_seed(0))  # 4 steps of 2 slots
+    with torch.no_grad():
+        model.reset(hidden_state=None)
+        expected = [model(TensorDict({"student": frames[t]}, batch_size=[2])) for t in range(4)]
+    assert not torch.allclose(expected[0], expected[3])
+    for p in (list_checkpoints(student)[-1][1], policy_path, onnx_path):
+        policy = load_policy_file(p)
+        for _ in range(2):  # a reset starts the memory again
+            policy.reset(np.arange(2))
+            for t in range(4):
+                a = policy.act({"student": frames[t]}, np.arange(2), [None, None])
+                torch.testing.assert_close(a, expected[t], atol=1e-5, rtol=0)
+        # slot 1 alone, after its own reset: the same actions (memory is per slot)
+        policy.reset(np.array([1]))
+        for t in range(4):
+            a = policy.act({"student": frames[t, 1:]}, np.array([1]), [None])
+            torch.testing.assert_close(a, expected[t][1:], atol=1e-5, rtol=0)
+    res = evaluate_grid(load_policy_file(policy_path), policy_name="gru", grid="tiny", episodes=1, seed=0,
+                        out_dir=tmp_path / "eval", cfg=CFG, progress=False)
+    assert res.summary["overall"]["n"] == 4
+    dest = tmp_path / "ckpts"
+    ship(ShipArgs(run=student, name="flat", evaluation=tmp_path / "eval", dest=dest))
+    assert "GRU" in (dest / "flat.md").read_text()
+
+
 def test_state_dependent_std_starts_as_the_source_policy_and_deploys_its_mean(tmp_path: Path):
     """--init-from a teacher with one std vector into a teacher whose std depends on the state:
     the same means and stds at the start; after training, the run's checkpoint, its exported

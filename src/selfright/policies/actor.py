@@ -6,10 +6,12 @@ A trained actor travels in three forms, all built here:
   ``student_state_dict`` from distillation), converted by ``actor_from_checkpoint``;
 - a policy file (``.pt``): the actor's ``state_dict`` plus metadata, nothing else, so it
   loads with ``torch.load(..., weights_only=True)`` (``save_actor_file`` / ``load_actor_file``);
-- an ONNX graph ``obs (batch, D) -> actions (batch, J)`` (``export_onnx``).
+- an ONNX graph ``obs (batch, D) -> actions (batch, J)`` (``export_onnx``); a recurrent
+  actor's graph also maps ``hidden (batch, H)`` to ``hidden_out (batch, H)``.
 
 The MLP's layer names match rsl_rl's ``MLPModel.mlp`` (``mlp.0.weight`` ...), so weights
-copy over unchanged.
+copy over unchanged; a recurrent student (rsl_rl ``RNNModel`` with a GRU) has its GRU
+between the normaliser and the MLP.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import logging
 import re
 import warnings
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -78,6 +81,9 @@ class ActorMeta:
     obs_history: int = 1
     """Frames of ``obs_group`` in the input, oldest first (``obs_dim`` = frames × group size);
     the policy keeps them per env slot (``selfright.policies.history``)."""
+    gru_dim: int = 0
+    """Hidden size of the GRU between the normaliser and the MLP; 0 = feed-forward. The
+    policy keeps the hidden state per env slot (``selfright.policies.recurrent``)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -93,7 +99,11 @@ class ActorMeta:
 
 
 class ActorMLP(nn.Module):
-    """Deterministic actor: ``mlp((obs − mean) / (std + eps))``, obs (k, D) -> actions (k, J)."""
+    """Deterministic actor: ``mlp((obs − mean) / (std + eps))``, obs (k, D) -> actions (k, J).
+
+    With ``meta.gru_dim`` H > 0 a GRU sits before the MLP and the actor is a step function
+    ``(obs (k, D), hidden (k, H)) -> (actions (k, J), hidden (k, H))``; the hidden state of an
+    episode's first step is zeros."""
 
     def __init__(self, meta: ActorMeta):
         super().__init__()
@@ -102,17 +112,29 @@ class ActorMLP(nn.Module):
         self.obs_normalization = bool(meta.obs_normalization)
         self.register_buffer("obs_mean", torch.zeros(meta.obs_dim))
         self.register_buffer("obs_std", torch.ones(meta.obs_dim))
-        dims = [meta.obs_dim, *meta.hidden_dims]
+        self.gru = nn.GRU(meta.obs_dim, meta.gru_dim) if meta.gru_dim > 0 else None
+        dims = [meta.gru_dim or meta.obs_dim, *meta.hidden_dims]
         layers: list[nn.Module] = []
         for a, b in zip(dims[:-1], dims[1:]):
             layers += [nn.Linear(a, b), resolve_nn_activation(meta.activation)]
         layers.append(nn.Linear(dims[-1], meta.action_dim))
         self.mlp = nn.Sequential(*layers)
 
-    def forward(self, obs: torch.Tensor) -> torch.Tensor:
-        return self.mlp(self._normalize(obs))
+    @property
+    def recurrent(self) -> bool:
+        return self.gru is not None
 
-    def forward_rows(self, obs: torch.Tensor) -> torch.Tensor:
+    def forward(self, obs: torch.Tensor, hidden: torch.Tensor | None = None) -> Any:
+        """Actions (k, J); for a recurrent actor ``(actions, hidden)`` from ``hidden`` (k, H)."""
+        x = self._normalize(obs)
+        if self.gru is None:
+            return self.mlp(x)
+        if hidden is None:
+            raise ValueError("a recurrent actor needs its hidden state (zeros at an episode's start)")
+        out, h = self.gru(x.unsqueeze(0), hidden.unsqueeze(0))
+        return self.mlp(out.squeeze(0)), h.squeeze(0)
+
+    def forward_rows(self, obs: torch.Tensor, hidden: torch.Tensor | None = None) -> Any:
         """``forward``, computed so that each row's result is bitwise independent of the other
         rows and of their number. In a plain batched pass two things depend on the batch: a
         (k, D) @ (D, H) product sums in a k-dependent order (BLAS blocks differently), and an
@@ -122,13 +144,32 @@ class ActorMLP(nn.Module):
         would depend on the episodes batched with it. Here every row is its own (1, D) @ (D, H)
         product (``bmm`` over k) and activations run on rows padded to whole vectors; results
         agree with ``forward`` to float32 rounding."""
-        x = self._normalize(obs).unsqueeze(1)
+        x = self._normalize(obs)
+        h = None
+        if self.gru is not None:
+            if hidden is None:
+                raise ValueError("a recurrent actor needs its hidden state (zeros at an episode's start)")
+            x = h = self._gru_rows(x, hidden)
+        x = x.unsqueeze(1)
         for layer in self.mlp:
             if isinstance(layer, nn.Linear):
-                x = torch.bmm(x, layer.weight.t().expand(x.shape[0], -1, -1)) + layer.bias
+                x = _linear_rows(x, layer.weight, layer.bias)
             else:
                 x = _padded_rows(layer, x.squeeze(1)).unsqueeze(1)  # elementwise activation
-        return x.squeeze(1)
+        return x.squeeze(1) if h is None else (x.squeeze(1), h)
+
+    def _gru_rows(self, x: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
+        """One GRU step, row by row (torch's gate order r, z, n):
+        r = σ(W_ir x + b_ir + W_hr h + b_hr), z = σ(W_iz x + … ), n = tanh(W_in x + b_in + r ⊙ (W_hn h + b_hn)),
+        h' = (1 − z) ⊙ n + z ⊙ h."""
+        g = self.gru
+        gi = _linear_rows(x.unsqueeze(1), g.weight_ih_l0, g.bias_ih_l0).squeeze(1)
+        gh = _linear_rows(h.unsqueeze(1), g.weight_hh_l0, g.bias_hh_l0).squeeze(1)
+        (ir, iz, i_n), (hr, hz, hn) = gi.chunk(3, dim=1), gh.chunk(3, dim=1)
+        r = _padded_rows(torch.sigmoid, ir + hr)
+        z = _padded_rows(torch.sigmoid, iz + hz)
+        n = _padded_rows(torch.tanh, i_n + r * hn)
+        return (1.0 - z) * n + z * h
 
     def _normalize(self, obs: torch.Tensor) -> torch.Tensor:
         if self.obs_normalization:
@@ -144,7 +185,12 @@ ELEMENTWISE_GRAIN = 32768
 across threads at positions that need not fall on row boundaries."""
 
 
-def _padded_rows(fn: nn.Module, x: torch.Tensor) -> torch.Tensor:
+def _linear_rows(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.Tensor:
+    """``x @ weight.T + bias`` for x (k, 1, D), each row its own (1, D) @ (D, H) product."""
+    return torch.bmm(x, weight.t().expand(x.shape[0], -1, -1)) + bias
+
+
+def _padded_rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) -> torch.Tensor:
     """Elementwise ``fn`` of ``x`` (k, H), every element through the same (vector) code path:
     rows zero-padded to a multiple of ``ROW_PAD``, in single-threaded blocks of whole rows."""
     k, h = x.shape
@@ -183,7 +229,12 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         if shapes[-1][0] % 2:
             raise ValueError(f"actor with a state-dependent std needs an even output size, got {shapes[-1][0]}")
         shapes[-1] = (shapes[-1][0] // 2, shapes[-1][1])
-    obs_dim = shapes[0][1]
+    gru_dim, obs_dim = 0, shapes[0][1]
+    if "rnn.rnn.weight_hh_l0" in sd:  # rsl_rl RNNModel: RNN(obs) -> MLP
+        w_ih, w_hh = sd["rnn.rnn.weight_ih_l0"], sd["rnn.rnn.weight_hh_l0"]
+        gru_dim, obs_dim = int(w_hh.shape[1]), int(w_ih.shape[1])
+        if w_hh.shape[0] != 3 * gru_dim or "rnn.rnn.weight_hh_l1" in sd:
+            raise ValueError("only one-layer GRU students are supported (this recurrent actor is an LSTM or deeper)")
     history = int(hint.get("obs_history", 1))
     if obs_dim % history:
         raise ValueError(f"actor input size {obs_dim} is not a multiple of its {history} observation frames")
@@ -203,9 +254,12 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         action_reference=str(hint.get("action_reference", "")),
         action_scale_rad=float(hint.get("action_scale_rad", 0.0)),
         obs_history=history,
+        gru_dim=gru_dim,
     )
     actor = ActorMLP(meta)
     state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))
+    if gru_dim:
+        state.update(("gru." + k.removeprefix("rnn.rnn."), v) for k, v in sd.items() if k.startswith("rnn.rnn."))
     if two_heads:  # keep the mean head: the first half of the last layer's rows
         last = layers[-1][1]
         bias = last.removesuffix("weight") + "bias"
@@ -257,6 +311,8 @@ def export_onnx(actor: ActorMLP, path: str | Path) -> None:
     """Write ``actor`` as ONNX: input ``obs`` (batch, D) float32 -> output ``actions`` (batch, J).
     With ``meta.obs_history`` H > 1, ``obs`` is the group's last H frames concatenated, oldest
     first, every frame the first one at an episode's start (the deployer keeps that history).
+    A recurrent actor (``meta.gru_dim`` H > 0) has a second input ``hidden`` (batch, H), zeros
+    at an episode's start, and a second output ``hidden_out`` to feed back at the next step.
 
     The metadata (``ActorMeta``) is stored in the model's ``metadata_props`` (values as JSON).
     """
@@ -270,13 +326,19 @@ def export_onnx(actor: ActorMLP, path: str | Path) -> None:
             lg.setLevel(logging.ERROR)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            batch = torch.export.Dim("batch")
+            args: tuple[torch.Tensor, ...] = (torch.zeros(1, actor.meta.obs_dim),)
+            names_in, names_out = ["obs"], ["actions"]
+            if actor.recurrent:
+                args += (torch.zeros(1, actor.meta.gru_dim),)
+                names_in, names_out = ["obs", "hidden"], ["actions", "hidden_out"]
             program = torch.onnx.export(
                 actor,
-                (torch.zeros(1, actor.meta.obs_dim),),
+                args,
                 None,
-                input_names=["obs"],
-                output_names=["actions"],
-                dynamic_shapes=({0: torch.export.Dim("batch")},),
+                input_names=names_in,
+                output_names=names_out,
+                dynamic_shapes=tuple({0: batch} for _ in args),
                 opset_version=18,
                 dynamo=True,
                 verbose=False,

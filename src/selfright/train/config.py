@@ -174,6 +174,12 @@ class DistillationConfig:
     current one only). The issue allows a short history: on the incline a lying robot cannot
     tell the slope from one IMU reading, while a few frames show which way it slides.
     Deployment stacks frames the same way (``selfright.policies.history``)."""
+    student_gru: int = 0
+    """Hidden size of a GRU between the student's input and its MLP (rsl_rl ``RNNModel``);
+    0 = a feed-forward student. A recurrent student remembers the whole episode instead of a
+    fixed window; it is trained by truncated backpropagation through ``gradient_length``
+    steps and deployed with its hidden state kept per env slot, reset at each episode's start
+    (``selfright.policies.recurrent``)."""
     fallback_teacher: str | None = None
     """A second teacher checkpoint that labels the states where the robot has stalled under
     the first (``selfright.train.fallback_teacher``): still for ``stall_s`` while tilted more
@@ -258,7 +264,7 @@ class TrainConfig:
             **common,
             "num_steps_per_env": d.steps_per_env,
             "obs_groups": {"student": [student_group(d.student_history)], "teacher": ["teacher"]},
-            "student": {**net, "distribution_cfg": _gaussian(d.student_init_std)},
+            "student": {**_student_cfg(pol, d.student_gru), "distribution_cfg": _gaussian(d.student_init_std)},
             # The teacher acts deterministically; init_std 0 as rsl_rl's maintainers advise
             # (its trained std is loaded with the weights and never used).
             "teacher": {
@@ -300,6 +306,13 @@ def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:
         "activation": pol.activation,
         "obs_normalization": pol.obs_normalization,
     }
+
+
+def _student_cfg(pol: PolicyConfig, gru: int) -> dict[str, Any]:
+    """The student network: the actor MLP, behind a one-layer GRU of ``gru`` units if ``gru`` > 0."""
+    if gru <= 0:
+        return _mlp_cfg(pol)
+    return {**_mlp_cfg(pol), "class_name": "RNNModel", "rnn_type": "gru", "rnn_hidden_dim": gru, "rnn_num_layers": 1}
 
 
 def _gaussian(init_std: float, state_dependent: bool = False) -> dict[str, Any]:
