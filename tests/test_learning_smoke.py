@@ -10,6 +10,7 @@ import io
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -249,17 +250,35 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert reward_summary({"role": "teacher"}).startswith("unknown")
 
 
-def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path):
-    """A student reading 2 stacked frames: its checkpoint, policy file and ONNX graph all keep
-    the history per env slot, and agree with the network on hand-stacked frames."""
+def _distil_tiny_student(tmp_path: Path, **distillation: Any) -> tuple[TrainingRun, Path, Path, Path]:
+    """A tiny teacher, then a student with the given ``DistillationConfig`` fields, exported:
+    (the student's run, its folder, its ONNX graph, its policy file)."""
     teacher = tmp_path / "teacher"
     run(spec(teacher))
-    train = dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, student_history=2))
+    train = dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, **distillation))
     student = tmp_path / "student"
     r = run(spec(student, role="student", teacher=teacher, train=train))
     assert all(math.isfinite(v) for v in r.last_loss.values())
-    assert json.loads((student / "train_meta.json").read_text())["policy"]["obs_history"] == 2
     onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
+    return r, student, onnx_path, policy_path
+
+
+def _evaluate_and_ship(tmp_path: Path, policy_file: Path, run_dir: Path) -> str:
+    """Evaluate ``policy_file`` on the tiny grid, ship ``run_dir`` with that evaluation; returns
+    the model card's text."""
+    res = evaluate_grid(load_policy_file(policy_file), policy_name=policy_file.stem, grid="tiny", episodes=1, seed=0,
+                        out_dir=tmp_path / "eval", cfg=CFG, progress=False)
+    assert res.summary["overall"]["n"] == 4
+    dest = tmp_path / "ckpts"
+    ship(ShipArgs(run=run_dir, name="flat", evaluation=tmp_path / "eval", dest=dest))
+    return (dest / "flat.md").read_text()
+
+
+def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path):
+    """A student reading 2 stacked frames: its checkpoint, policy file and ONNX graph all keep
+    the history per env slot, and agree with the network on hand-stacked frames."""
+    _, student, onnx_path, policy_path = _distil_tiny_student(tmp_path, student_history=2)
+    assert json.loads((student / "train_meta.json").read_text())["policy"]["obs_history"] == 2
     frames = torch.randn(3, 2, 42, generator=torch.Generator().manual_seed(0))  # 3 steps of 2 slots
     actor = load_policy_file(policy_path).module
     assert actor.meta.obs_history == 2 and actor.meta.obs_dim == 84
@@ -271,12 +290,7 @@ def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path
         for t in range(3):
             a = policy.act({"student": frames[t]}, np.arange(2), [None, None])
             torch.testing.assert_close(a, expected[t], atol=1e-5, rtol=0)
-    res = evaluate_grid(load_policy_file(onnx_path), policy_name="h2", grid="tiny", episodes=1, seed=0,
-                        out_dir=tmp_path / "eval", cfg=CFG, progress=False)
-    assert res.summary["overall"]["n"] == 4
-    dest = tmp_path / "ckpts"
-    ship(ShipArgs(run=student, name="flat", evaluation=tmp_path / "eval", dest=dest))
-    assert "its last 2 frames stacked" in (dest / "flat.md").read_text()
+    assert "its last 2 frames stacked" in _evaluate_and_ship(tmp_path, onnx_path, student)
 
 
 def test_gru_student_trains_exports_and_deploys_the_same(tmp_path: Path):
@@ -284,14 +298,8 @@ def test_gru_student_trains_exports_and_deploys_the_same(tmp_path: Path):
     keep a hidden state per env slot, zeroed by ``reset``, and agree with rsl_rl's model."""
     from tensordict import TensorDict
 
-    teacher = tmp_path / "teacher"
-    run(spec(teacher))
-    train = dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, student_gru=8))
-    student = tmp_path / "student"
-    r = run(spec(student, role="student", teacher=teacher, train=train))
-    assert all(math.isfinite(v) for v in r.last_loss.values())
+    r, student, onnx_path, policy_path = _distil_tiny_student(tmp_path, student_gru=8)
     assert json.loads((student / "train_meta.json").read_text())["policy"]["gru_dim"] == 8
-    onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
     model = r.runner.alg.student
     model.eval()
     frames = torch.randn(4, 2, 42, generator=torch.Generator().manual_seed(0))  # 4 steps of 2 slots
@@ -311,12 +319,7 @@ def test_gru_student_trains_exports_and_deploys_the_same(tmp_path: Path):
         for t in range(4):
             a = policy.act({"student": frames[t, 1:]}, np.array([1]), [None])
             torch.testing.assert_close(a, expected[t][1:], atol=1e-5, rtol=0)
-    res = evaluate_grid(load_policy_file(policy_path), policy_name="gru", grid="tiny", episodes=1, seed=0,
-                        out_dir=tmp_path / "eval", cfg=CFG, progress=False)
-    assert res.summary["overall"]["n"] == 4
-    dest = tmp_path / "ckpts"
-    ship(ShipArgs(run=student, name="flat", evaluation=tmp_path / "eval", dest=dest))
-    assert "GRU" in (dest / "flat.md").read_text()
+    assert "GRU of 8 units" in _evaluate_and_ship(tmp_path, policy_path, student)
 
 
 def test_state_dependent_std_starts_as_the_source_policy_and_deploys_its_mean(tmp_path: Path):
