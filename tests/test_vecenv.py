@@ -113,6 +113,20 @@ def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
     env.close()
 
 
+@pytest.mark.parametrize(("on", "as_timeout"), [(False, False), (True, False), (True, True)])
+def test_success_ends_the_episode_only_when_asked(flat_worlds, monkeypatch, on, as_timeout):
+    """``terminate_on_success``: the episode ends when the goal hold completes, as a terminal
+    state or (``success_is_timeout``) as a bootstrapped time-out; off, the robot keeps holding."""
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(terminate_on_success=on, success_is_timeout=as_timeout))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
+    monkeypatch.setattr(env.env.goal, "update", lambda ids, in_goal, *args: torch.arange(len(in_goal)) == 0)  # slot 0 completes its hold
+    with torch.inference_mode():
+        _, _, dones, extras = env.step(torch.zeros(2, 12))
+    assert dones.tolist() == [on, False]
+    assert extras["time_outs"].tolist() == [on and as_timeout, False]
+    env.close()
+
+
 def test_larger_training_tile_moves_the_edge_only():
     """``EpisodeConfig.tile_size_m`` widens the training tile around the same drop square: a
     robot where the benchmark's edge would end the episode keeps going."""

@@ -46,6 +46,13 @@ class EpisodeConfig:
     replayed falls join at the next batch."""
     terminate_on_success: bool = False
     """End the episode when the goal hold completes; off = keep holding until the time-out."""
+    success_is_timeout: bool = False
+    """With ``terminate_on_success``: end it as a time-out (PPO bootstraps the value of the
+    standing state) instead of a terminal state worth 0, which would charge a policy for
+    succeeding, since Table I pays a standing robot about 10 per second. The episode then
+    stops where the benchmark stops scoring it, and the steps after the hold no longer train
+    the policy (on them Table I's feet term pulls every run into a crouch under the goal
+    bar: docs/training.md)."""
     replay_failed: float = 0.0
     """Share of new training episodes that replay the start of a recent failed one (the same
     fall-protocol draw on the same tile: position, orientation, joints; fresh randomisation

@@ -18,7 +18,8 @@ judge policies with ``selfright evaluate``.
 Training episodes last ``EpisodeConfig.episode_s`` (10 s) after the fall protocol; they end
 early only when the physics diverges (terminal) or the robot leaves the tile (a time-out:
 bootstrapped, see ``EpisodeConfig.off_tile_is_timeout``), not on success, so the policy
-learns to keep standing.
+learns to keep standing; ``EpisodeConfig.terminate_on_success`` ends them once the goal hold
+completes (``success_is_timeout``: as a time-out).
 """
 
 from __future__ import annotations
@@ -90,6 +91,8 @@ class RecoveryVecEnv(VecEnv):
         self.term_names = tuple(reward_weights(train.reward))
         self.episode_sums = {name: torch.zeros(num_envs) for name in self.term_names}
         self.ever_succeeded = torch.zeros(num_envs, dtype=torch.bool)
+        self.stopped_on_success = torch.zeros(num_envs, dtype=torch.bool)
+        """Slots whose episode ends at this step because the goal hold completed."""
         ep = train.episode
         self.curriculum = ep.curriculum and len(worlds) > 1
         self.level = torch.zeros(num_envs, dtype=torch.long)
@@ -300,9 +303,12 @@ class RecoveryVecEnv(VecEnv):
         terminated = out.failed & diverged
         if not self.train_cfg.episode.off_tile_is_timeout:
             terminated |= left_tile
-        if self.train_cfg.episode.terminate_on_success:
-            terminated |= out.succeeded
-        time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile) & ~terminated
+        ep = self.train_cfg.episode
+        succeeded = out.succeeded if ep.terminate_on_success else torch.zeros_like(out.succeeded)
+        self.stopped_on_success = succeeded
+        if not ep.success_is_timeout:
+            terminated |= succeeded
+        time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile | succeeded) & ~terminated
         dones = terminated | time_out
 
         log: dict[str, float | torch.Tensor] = {f"Reward/{n}": v.mean() for n, v in terms.items()}
@@ -345,14 +351,16 @@ class RecoveryVecEnv(VecEnv):
 
     def _ended_in_goal(self, ids: torch.Tensor) -> torch.Tensor:
         """Whether the finished episodes in slots ``ids`` spent at least half of their final
-        ``window`` steps in the goal set (what the curriculum and replay call success)."""
-        return self.tail_goal_steps[ids] * 2 >= self.window
+        ``window`` steps in the goal set, or stopped on success (``terminate_on_success``):
+        what the curriculum and replay call success."""
+        return (self.tail_goal_steps[ids] * 2 >= self.window) | self.stopped_on_success[ids]
 
     def _update_levels(self, ids: torch.Tensor, left_tile: torch.Tensor) -> None:
         """Promote slots whose finished episode spent at least half its final window in the
         goal set; demote those that spent none of it there or left the tile."""
         up = self._ended_in_goal(ids) & ~left_tile
-        down = (self.tail_goal_steps[ids] == 0) | left_tile  # never together with up: up needs tail ≥ 1 on the tile
+        # never together with up: up needs tail ≥ 1 or a success, on the tile
+        down = ((self.tail_goal_steps[ids] == 0) & ~self.stopped_on_success[ids]) | left_tile
         step = up.long() - down.long()
         self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)
 
