@@ -301,9 +301,9 @@ class RecoveryVecEnv(VecEnv):
         diverged = env.diverged
         left_tile = out.failed & ~diverged
         terminated = out.failed & diverged
-        if not self.train_cfg.episode.off_tile_is_timeout:
-            terminated |= left_tile
         ep = self.train_cfg.episode
+        if not ep.off_tile_is_timeout:
+            terminated |= left_tile
         succeeded = out.succeeded if ep.terminate_on_success else torch.zeros_like(out.succeeded)
         self.stopped_on_success = succeeded
         if not ep.success_is_timeout:
