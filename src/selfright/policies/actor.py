@@ -129,9 +129,7 @@ class ActorMLP(nn.Module):
         x = self._normalize(obs)
         if self.gru is None:
             return self.mlp(x)
-        if hidden is None:
-            raise ValueError("a recurrent actor needs its hidden state (zeros at an episode's start)")
-        out, h = self.gru(x.unsqueeze(0), hidden.unsqueeze(0))
+        out, h = self.gru(x.unsqueeze(0), self._required(hidden).unsqueeze(0))
         return self.mlp(out.squeeze(0)), h.squeeze(0)
 
     def forward_rows(self, obs: torch.Tensor, hidden: torch.Tensor | None = None) -> Any:
@@ -147,9 +145,7 @@ class ActorMLP(nn.Module):
         x = self._normalize(obs)
         h = None
         if self.gru is not None:
-            if hidden is None:
-                raise ValueError("a recurrent actor needs its hidden state (zeros at an episode's start)")
-            x = h = self._gru_rows(x, hidden)
+            x = h = self._gru_rows(x, self._required(hidden))
         x = x.unsqueeze(1)
         for layer in self.mlp:
             if isinstance(layer, nn.Linear):
@@ -157,6 +153,12 @@ class ActorMLP(nn.Module):
             else:
                 x = _padded_rows(layer, x.squeeze(1)).unsqueeze(1)  # elementwise activation
         return x.squeeze(1) if h is None else (x.squeeze(1), h)
+
+    @staticmethod
+    def _required(hidden: torch.Tensor | None) -> torch.Tensor:
+        if hidden is None:
+            raise ValueError("a recurrent actor needs its hidden state (zeros at an episode's start)")
+        return hidden
 
     def _gru_rows(self, x: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
         """One GRU step, row by row (torch's gate order r, z, n):

@@ -19,28 +19,25 @@ class HiddenStates:
         self.dim = dim
         self.buf = torch.zeros(slots, dim)
 
-    def _grow(self, slots: int) -> None:
-        n = self.buf.shape[0]
-        if slots > n:
-            self.buf = torch.cat([self.buf, torch.zeros(slots - n, self.dim)])
+    def _slots(self, ids: np.ndarray) -> torch.Tensor:
+        """``ids`` as an index tensor, the buffer grown to hold every one of them."""
+        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
+        n = int(t.max()) + 1 if len(t) else 0
+        if n > self.buf.shape[0]:
+            self.buf = torch.cat([self.buf, torch.zeros(n - self.buf.shape[0], self.dim)])
+        return t
 
     def reset(self, ids: np.ndarray) -> None:
         """Slots ``ids`` (k,) start new episodes: their state is zeros."""
-        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
-        if len(t):
-            self._grow(int(t.max()) + 1)
-            self.buf[t] = 0.0
+        t = self._slots(ids)  # before reading self.buf: it may grow
+        self.buf[t] = 0.0
 
     def get(self, ids: np.ndarray) -> torch.Tensor:
         """The states of slots ``ids``: (k, dim)."""
-        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
-        if len(t):
-            self._grow(int(t.max()) + 1)
+        t = self._slots(ids)
         return self.buf[t].clone()
 
     def set(self, ids: np.ndarray, states: torch.Tensor) -> None:
         """Store ``states`` (k, dim) as the states of slots ``ids``."""
-        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
-        if len(t):
-            self._grow(int(t.max()) + 1)
-            self.buf[t] = states.detach().to(self.buf.dtype).cpu()
+        t = self._slots(ids)
+        self.buf[t] = states.detach().to(self.buf.dtype).cpu()

@@ -12,10 +12,13 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from selfright.config import RewardConfig
 from selfright.policies.registry import CHECKPOINT_DIR
+
+if TYPE_CHECKING:
+    from selfright.policies.actor import ActorMeta
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -52,7 +55,7 @@ def ship(args: ShipArgs) -> Path:
     out = args.dest / f"{args.name}.pt"
     save_actor_file(out, actor)
     notes = args.notes.read_text().strip() if args.notes is not None else ""
-    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta.obs_group, notes, actor.meta.obs_history, actor.meta.gru_dim))
+    (args.dest / f"{args.name}.md").write_text(model_card(args.name, meta, summary, actor.meta, notes))
     print(f"shipped {out} and its model card {out.with_suffix('.md')}")
     return out
 
@@ -97,11 +100,10 @@ def _budget(label: str, checkpoint: str | None) -> str:
 
 
 def model_card(
-    name: str, meta: dict[str, Any], summary: dict[str, Any], obs_group: str, notes: str = "", history: int = 1,
-    gru_dim: int = 0,
+    name: str, meta: dict[str, Any], summary: dict[str, Any], actor: ActorMeta, notes: str = ""
 ) -> str:
-    """Markdown model card from a run's meta, an evaluation summary and optional notes
-    (``history``: frames of ``obs_group`` the actor reads; ``gru_dim``: units of its GRU, 0 = none)."""
+    """Markdown model card from a run's meta, an evaluation summary, the shipped actor's
+    metadata (what it reads: group, history frames, GRU) and optional notes."""
     o = summary["overall"]
     lo, hi = o["success_ci95"]
     steps = int(meta.get("env_steps", 0))
@@ -114,9 +116,9 @@ def model_card(
     lines = [
         f"# Model card: `{name}`",
         "",
-        f"- **Role**: {meta.get('role')} (observation group `{obs_group}`"
-        + (f", its last {history} frames stacked oldest first" if history > 1 else "")
-        + (f", through a GRU of {gru_dim} units that remembers the episode)" if gru_dim > 0 else ")")
+        f"- **Role**: {meta.get('role')} (observation group `{actor.obs_group}`"
+        + (f", its last {actor.obs_history} frames stacked oldest first" if actor.obs_history > 1 else "")
+        + (f", through a GRU of {actor.gru_dim} units that remembers the episode)" if actor.gru_dim > 0 else ")")
         + (f", distilled from `{teacher}`" if teacher else ""),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),
