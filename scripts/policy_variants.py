@@ -1,6 +1,7 @@
 """Evaluate variants of learned policies that do not ship: a policy that samples its actions
 from its own training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, or a policy that hands over to a second one when it stalls.
+mean of its members' actions, or a policy that hands over to a second one when it stalls or
+while it is tilted over.
 Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_table.py`` and
 ``scripts/failure_overlap.py`` read it.
 
@@ -10,6 +11,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --seed 4 --out results/ensemble_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --fallback-s 9 \\
         --grid flat --seed 4 --out results/fallback_s4
+    python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --tilt-deg 45 \\
+        --grid flat --seed 4 --out results/tilt45_s4
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
 ``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
@@ -28,6 +31,7 @@ from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
+from selfright.policies.stall import StallSwitch, TiltSwitch
 from selfright.policies.variants import Fallback, MeanOf, Noisy, trained_std
 from selfright.robots import get_robot
 
@@ -48,6 +52,9 @@ class Args:
     stalled, tilted over, for ``stall_s`` (``selfright.policies.variants.Fallback``); 0 = average them."""
     stall_s: float = 0.5
     """How long the first policy must have lain still before the second takes over (s)."""
+    tilt_deg: float = 0.0
+    """With two policies: the second acts whenever the robot is tilted more than this from
+    upright, the first otherwise (``selfright.policies.stall.TiltSwitch``); 0 = off."""
     stall_below_bar: bool = False
     """Also hand over when the robot stands or sits still upright with its trunk under the
     goal bar (read from the privileged teacher observation)."""
@@ -61,12 +68,16 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
             raise ValueError("--noise-scale takes one policy")
         return Noisy(make_policy(a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
     members = [make_policy(p, cfg) for p in a.policies]
+    if a.fallback_s > 0 and a.tilt_deg > 0:
+        raise ValueError("give --fallback-s or --tilt-deg, not both")
+    if (a.fallback_s > 0 or a.tilt_deg > 0) and len(members) != 2:
+        raise ValueError("--fallback-s and --tilt-deg take two policies")
+    if a.tilt_deg > 0:
+        return Fallback(*members, TiltSwitch(a.tilt_deg))
     if a.fallback_s > 0:
-        if len(members) != 2:
-            raise ValueError("--fallback-s takes two policies")
         dt = cfg.sim.control_dt_s
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
-        return Fallback(*members, stall_steps=round(a.stall_s / dt), hand_steps=round(a.fallback_s / dt), bar_m=bar)
+        return Fallback(*members, StallSwitch(round(a.stall_s / dt), round(a.fallback_s / dt), bar))
     return members[0] if len(members) == 1 else MeanOf(members)
 
 
@@ -76,8 +87,13 @@ def main(a: Args) -> None:
         policy = make_variant(a, cfg)
     except ValueError as e:
         raise SystemExit(f"policy_variants: {e}") from None
-    name = (f" then (stalled {a.stall_s:g} s, for {a.fallback_s:g} s) ".join(a.policies) if a.fallback_s > 0
-            else " + ".join(a.policies)) + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
+    if a.tilt_deg > 0:
+        joined = f" then (tilted over {a.tilt_deg:g} deg) ".join(a.policies)
+    elif a.fallback_s > 0:
+        joined = f" then (stalled {a.stall_s:g} s, for {a.fallback_s:g} s) ".join(a.policies)
+    else:
+        joined = " + ".join(a.policies)
+    name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -195,9 +195,10 @@ class _Const(Policy):
 
 
 def test_fallback_hands_over_only_after_a_tilted_stall():
+    from selfright.policies.stall import StallSwitch
     from selfright.policies.variants import Fallback
 
-    fb = Fallback(_Const(1.0), _Const(2.0), stall_steps=2, hand_steps=3)
+    fb = Fallback(_Const(1.0), _Const(2.0), StallSwitch(stall_steps=2, hand_steps=3))
     ids = np.arange(2)
     fb.reset(ids)
     obs = torch.zeros(2, 42)
@@ -205,6 +206,20 @@ def test_fallback_hands_over_only_after_a_tilted_stall():
     obs[1, 2] = -1.0  # slot 1 upright, still
     got = [fb.act({"student": obs}, ids, [None, None])[:, 0].tolist() for _ in range(6)]
     assert got == [[1.0, 1.0], [2.0, 1.0], [2.0, 1.0], [2.0, 1.0], [1.0, 1.0], [2.0, 1.0]]
+
+
+def test_tilt_fallback_acts_exactly_while_tilted_over():
+    from selfright.policies.stall import TiltSwitch
+    from selfright.policies.variants import Fallback
+
+    fb = Fallback(_Const(1.0), _Const(2.0), TiltSwitch(45.0))
+    ids = np.arange(4)
+    fb.reset(ids)
+    obs = torch.zeros(4, 42)
+    tilt = torch.deg2rad(torch.tensor([0.0, 44.0, 46.0, 180.0]))
+    obs[:, 0], obs[:, 2] = torch.sin(tilt), -torch.cos(tilt)  # projected gravity of a trunk tilted about y
+    for _ in range(2):  # no memory: the same answer every step
+        assert fb.act({"student": obs}, ids, [None] * 4)[:, 0].tolist() == [1.0, 1.0, 2.0, 2.0]
 
 
 def test_teacher_height_column_is_the_trunk_height():
@@ -227,9 +242,11 @@ def test_teacher_height_column_is_the_trunk_height():
 
 def test_fallback_with_a_bar_counts_a_low_upright_stall():
     from selfright.env.observations import teacher_height_column
+    from selfright.policies.stall import StallSwitch
     from selfright.policies.variants import Fallback
 
-    fb = Fallback(_Const(1.0), _Const(2.0), stall_steps=1, hand_steps=1, bar_m=0.32)
+    fb = Fallback(_Const(1.0), _Const(2.0), StallSwitch(stall_steps=1, hand_steps=1, bar_m=0.32))
+    assert "teacher" in fb.groups
     ids = np.arange(2)
     fb.reset(ids)
     obs = torch.zeros(2, 79)

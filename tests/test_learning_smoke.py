@@ -356,7 +356,7 @@ def test_state_dependent_std_starts_as_the_source_policy_and_deploys_its_mean(tm
 def test_student_distils_from_a_teacher_with_a_stall_fallback(tmp_path: Path):
     """--train.distillation.fallback-teacher: the composite labels with the second teacher once
     the robot has lain still, per env; a resumed student keeps both teachers."""
-    from selfright.train.fallback_teacher import StallFallbackTeacher
+    from selfright.train.fallback_teacher import FallbackTeacher
 
     run(spec(tmp_path / "a"))
     run(spec(tmp_path / "b", seed=1))
@@ -364,7 +364,7 @@ def test_student_distils_from_a_teacher_with_a_stall_fallback(tmp_path: Path):
         TINY.distillation, fallback_teacher=str(tmp_path / "b"), stall_s=0.02, fallback_s=0.04))
     r = run(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train))
     teacher = r.runner.alg.teacher
-    assert isinstance(teacher, StallFallbackTeacher) and all(math.isfinite(v) for v in r.last_loss.values())
+    assert isinstance(teacher, FallbackTeacher) and all(math.isfinite(v) for v in r.last_loss.values())
     # A robot lying still on its back: the second teacher labels from the first stalled step, for 2 steps.
     obs = r.env.get_observations()
     x = obs["teacher"].clone()
@@ -378,6 +378,16 @@ def test_student_distils_from_a_teacher_with_a_stall_fallback(tmp_path: Path):
     torch.testing.assert_close(got[2], b)  # still lying: a new stall is detected at once (stall_s = one step)
     resumed = TrainingRun(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train, iterations=2, resume=True))
     resumed.setup()
-    assert isinstance(resumed.runner.alg.teacher, StallFallbackTeacher)
+    assert isinstance(resumed.runner.alg.teacher, FallbackTeacher)
     torch.testing.assert_close(resumed.runner.alg.teacher.fallback(obs), b)
     assert not torch.equal(a, b)
+    # The tilt rule: the second teacher labels exactly the tilted-over rows, whatever came before.
+    tilt = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, fallback_tilt_deg=45.0))
+    t = TrainingRun(spec(tmp_path / "student_tilt", role="student", teacher=tmp_path / "a", train=tilt))
+    t.setup()
+    x[:2, 2] = -1.0  # rows 0 and 1 upright, rows 2 and 3 on their back
+    obs["teacher"] = x
+    got = t.runner.alg.teacher(obs)
+    torch.testing.assert_close(got[:2], a_up := t.runner.alg.teacher.primary(obs)[:2])
+    torch.testing.assert_close(got[2:], t.runner.alg.teacher.fallback(obs)[2:])
+    assert not torch.equal(a_up, t.runner.alg.teacher.fallback(obs)[:2])

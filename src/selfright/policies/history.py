@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from selfright.policies.slots import grown, slot_index
+
 
 class ObsHistory:
     """Per-slot ring of ``frames`` observations of size ``dim``; grows to any slot index."""
@@ -24,26 +26,23 @@ class ObsHistory:
         self.fresh = torch.ones(slots, dtype=torch.bool)
         """Slots whose next ``push`` starts an episode (fills every frame)."""
 
-    def _grow(self, slots: int) -> None:
-        n = self.buf.shape[0]
-        if slots > n:
-            self.buf = torch.cat([self.buf, torch.zeros(slots - n, self.frames, self.dim)])
-            self.fresh = torch.cat([self.fresh, torch.ones(slots - n, dtype=torch.bool)])
+    def _slots(self, ids: np.ndarray) -> torch.Tensor:
+        """``ids`` as an index tensor, the buffers grown to hold every one of them."""
+        t = slot_index(ids)
+        self.buf, self.fresh = grown(self.buf, t), grown(self.fresh, t, True)
+        return t
 
     def reset(self, ids: np.ndarray) -> None:
         """Slots ``ids`` (k,) start new episodes: their next frame fills the whole history."""
-        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
-        if len(t):
-            self._grow(int(t.max()) + 1)
-            self.fresh[t] = True
+        t = self._slots(ids)  # before reading self.fresh: it may grow
+        self.fresh[t] = True
 
     def push(self, ids: np.ndarray, obs: torch.Tensor) -> torch.Tensor:
         """Append ``obs`` (k, dim) to the histories of slots ``ids``; returns the stacked
         histories (k, frames · dim), oldest frame first."""
-        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
+        t = self._slots(ids)
         if len(t) == 0:
             return obs.new_zeros(0, self.frames * self.dim)
-        self._grow(int(t.max()) + 1)
         x = obs.detach().to(self.buf.dtype).cpu()
         rolled = torch.cat([self.buf[t, 1:], x[:, None]], dim=1)
         filled = x[:, None].expand(-1, self.frames, -1)

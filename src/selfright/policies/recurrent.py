@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from selfright.policies.slots import grown, slot_index
+
 
 class HiddenStates:
     """(slots, dim) hidden states; grows to any slot index."""
@@ -21,10 +23,8 @@ class HiddenStates:
 
     def _slots(self, ids: np.ndarray) -> torch.Tensor:
         """``ids`` as an index tensor, the buffer grown to hold every one of them."""
-        t = torch.as_tensor(np.asarray(ids), dtype=torch.long)
-        n = int(t.max()) + 1 if len(t) else 0
-        if n > self.buf.shape[0]:
-            self.buf = torch.cat([self.buf, torch.zeros(n - self.buf.shape[0], self.dim)])
+        t = slot_index(ids)
+        self.buf = grown(self.buf, t)
         return t
 
     def reset(self, ids: np.ndarray) -> None:

@@ -1,9 +1,14 @@
-"""The stall hand-over rule: per env slot, when has the robot lain still long enough for a
-second policy to take over, and for how long does it act. Shared by the evaluation-time
-``selfright.policies.variants.Fallback`` and the distillation teacher
-``selfright.train.fallback_teacher.StallFallbackTeacher``.
+"""Hand-over rules: per env slot, does a second policy act instead of the first. Shared by
+the evaluation-time ``selfright.policies.variants.Fallback`` and the distillation teacher
+``selfright.train.fallback_teacher.FallbackTeacher``; both call ``reset(slots)`` at an
+episode's start and ``step(x, slots)`` every control step.
 
-Stalled = tilted more than ``TILT_DEG`` from upright (the IMU's projected gravity), or, with a
+``TiltSwitch``: the second acts whenever the robot is tilted more than ``tilt_deg`` from
+upright (the IMU's projected gravity). A function of the current observation alone, so a
+one-frame student can learn the composite it labels.
+
+``StallSwitch``: the second takes over once the robot has lain still long enough, for a
+while. Stalled = tilted more than ``TILT_DEG`` from upright (the IMU's projected gravity), or, with a
 bar, upright with the trunk under it (the teacher observation's height, a privileged
 reading); with the joint velocities' norm under ``JOINT_SPEED_RAD_S`` and the trunk's angular
 speed under ``ANG_SPEED_RAD_S``; for ``stall_steps`` control steps in a row. The second
@@ -17,10 +22,30 @@ import math
 import torch
 
 from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, teacher_height_column
+from selfright.policies.slots import grown, slot_index
 
 TILT_DEG = 30.0
 JOINT_SPEED_RAD_S = 1.0
 ANG_SPEED_RAD_S = 0.5
+
+
+class TiltSwitch:
+    """The second policy acts while the trunk's up axis is more than ``tilt_deg`` from world z."""
+
+    needs_teacher = False
+
+    def __init__(self, tilt_deg: float):
+        if not 0.0 < tilt_deg < 180.0:
+            raise ValueError(f"tilt_deg must lie in (0, 180), got {tilt_deg}")
+        self.tilt_deg = tilt_deg
+        self._cos = math.cos(math.radians(tilt_deg))
+
+    def reset(self, slots: torch.Tensor) -> None:
+        """Nothing to reset: the rule keeps no state."""
+
+    def step(self, x: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
+        """(k,) bool for observations ``x`` (k, D), student columns first: the second policy acts."""
+        return (-x[:, 2] < self._cos).cpu()
 
 
 class StallSwitch:
@@ -28,32 +53,32 @@ class StallSwitch:
     to the largest slot seen."""
 
     def __init__(self, stall_steps: int, hand_steps: int, bar_m: float | None = None, num_joints: int = 12):
+        self.needs_teacher = bar_m is not None
         self.stall_steps, self.hand_steps, self.bar_m = stall_steps, hand_steps, bar_m
         self.qd = joint_vel_columns(num_joints)
         self.height = teacher_height_column(num_joints)
         self._still = torch.zeros(0, dtype=torch.long)
         self._left = torch.zeros(0, dtype=torch.long)
 
-    def _grow(self, n: int) -> None:
-        if n > len(self._still):
-            pad = torch.zeros(n - len(self._still), dtype=torch.long)
-            self._still, self._left = torch.cat([self._still, pad]), torch.cat([self._left, pad])
+    def _slots(self, slots: torch.Tensor) -> torch.Tensor:
+        """``slots`` as an index tensor, the counters grown to hold every one of them."""
+        t = slot_index(slots)
+        self._still, self._left = grown(self._still, t), grown(self._left, t)
+        return t
 
     def reset(self, slots: torch.Tensor) -> None:
         """Zero the counters of ``slots`` (indices, or a bool mask over all slots)."""
         slots = torch.as_tensor(slots)
         if slots.dtype == torch.bool:
             slots = slots.nonzero().flatten()
-        if len(slots):
-            self._grow(int(slots.max()) + 1)
-            self._still = self._still.index_fill(0, slots.cpu(), 0)  # out of place: rollouts may run in inference mode
-            self._left = self._left.index_fill(0, slots.cpu(), 0)
+        t = self._slots(slots)
+        self._still = self._still.index_fill(0, t, 0)  # out of place: rollouts may run in inference mode
+        self._left = self._left.index_fill(0, t, 0)
 
     def step(self, x: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
         """One control step of ``slots`` (k,) with observations ``x`` (k, D): student columns
         first, the teacher's if ``bar_m`` is set. Returns (k,) bool: the second policy acts."""
-        slots = torch.as_tensor(slots).cpu()
-        self._grow(int(slots.max()) + 1 if len(slots) else 0)
+        slots = self._slots(slots)
         x = x.detach().cpu()
         upright = -x[:, 2] >= math.cos(math.radians(TILT_DEG))
         if self.bar_m is not None:

@@ -12,7 +12,7 @@ import numpy as np
 import torch
 
 from selfright.policies.base import Policy
-from selfright.policies.stall import StallSwitch
+from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
 class MeanOf(Policy):
@@ -67,20 +67,18 @@ def trained_std(checkpoint: str) -> torch.Tensor:
 
 
 class Fallback(Policy):
-    """``first`` acts until the robot stalls, then ``second`` takes over for ``hand_steps``
-    control steps (then ``first`` again): the rule of ``selfright.policies.stall``. With
-    ``bar_m`` an upright robot whose trunk is lower than that counts as stalled too (read from
-    the teacher observation, which is then computed)."""
+    """``first`` acts, and ``second`` where ``switch`` (a rule of ``selfright.policies.stall``)
+    hands over: e.g. ``StallSwitch`` (for a while after the robot stalls; with a bar, an
+    upright robot whose trunk is lower counts as stalled too, read from the teacher
+    observation, which is then computed) or ``TiltSwitch`` (while it is tilted over)."""
 
-    def __init__(
-        self, first: Policy, second: Policy, stall_steps: int = 25, hand_steps: int = 50, bar_m: float | None = None
-    ):
-        self.first, self.second = first, second
-        extra = {"teacher"} if bar_m is not None else set()
+    def __init__(self, first: Policy, second: Policy, switch: StallSwitch | TiltSwitch):
+        self.first, self.second, self.switch = first, second, switch
+        extra = {"teacher"} if switch.needs_teacher else set()
         self.groups = tuple(sorted(set(first.groups) | set(second.groups) | extra))
         self.action_mapping = first.action_mapping
-        self.name = f"{first.name}, then {second.name} when stalled"
-        self.switch = StallSwitch(stall_steps, hand_steps, bar_m)
+        when = f"tilted over {switch.tilt_deg:g} deg" if isinstance(switch, TiltSwitch) else "stalled"
+        self.name = f"{first.name}, then {second.name} when {when}"
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.first.reset(ids, seeds)

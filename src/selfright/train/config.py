@@ -188,9 +188,14 @@ class DistillationConfig:
     steps and deployed with its hidden state kept per env slot, reset at each episode's start
     (``selfright.policies.recurrent``)."""
     fallback_teacher: str | None = None
-    """A second teacher checkpoint that labels the states where the robot has stalled under
-    the first (``selfright.train.fallback_teacher``): still for ``stall_s`` while tilted more
-    than 30° or under the goal bar, then for ``fallback_s``. None = one teacher."""
+    """A second teacher checkpoint that labels some states instead of the first
+    (``selfright.train.fallback_teacher``): those where the robot has stalled under the first
+    (still for ``stall_s`` while tilted more than 30° or under the goal bar, then for
+    ``fallback_s``), or, with ``fallback_tilt_deg``, every state tilted over. None = one teacher."""
+    fallback_tilt_deg: float = 0.0
+    """With ``fallback_teacher``: it labels every state whose trunk is tilted more than this
+    from upright (deg), the first teacher the rest; a rule of the current state alone
+    (``selfright.policies.stall.TiltSwitch``). 0 = the stall rule."""
     fallback_s: float = 2.0
     """How long the fallback teacher labels after a stall (s)."""
     stall_s: float = 0.5

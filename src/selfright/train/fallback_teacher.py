@@ -1,11 +1,13 @@
 """A composite frozen teacher for distillation: the primary teacher acts, and a second
-(fallback) teacher takes over for a while whenever the robot has stalled, the rule of
-``selfright.policies.stall`` evaluated on the teacher observation, per env.
+(fallback) teacher where a hand-over rule of ``selfright.policies.stall`` says so, per env,
+evaluated on the teacher observation: for a while after the robot has stalled
+(``StallSwitch``), or whenever it is tilted over (``TiltSwitch``).
 
 The flat teacher's misses are postures it lies or sits still in; a specialist trained with
 large exploration noise from those postures gets the robot out of them (docs/training.md,
 *What the flat failures are*). Distilling one student from the pair puts both into a single
-sensor-only network: the labels are the fallback's actions in the states where it acts.
+sensor-only network: the labels are the fallback's actions in the states where it acts. With
+the tilt rule the label is a function of the current state, which a one-frame student sees.
 """
 
 from __future__ import annotations
@@ -13,20 +15,16 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from selfright.policies.stall import StallSwitch
+from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
-class StallFallbackTeacher(nn.Module):
-    """``primary``'s action, or ``fallback``'s for ``hand_steps`` control steps after the robot
-    has been still for ``stall_steps`` steps while tilted more than 30° or under ``bar_m``
-    (``selfright.policies.stall``). Keeps per-env counters; rsl_rl's ``Distillation`` calls
-    ``reset(dones)`` every step."""
+class FallbackTeacher(nn.Module):
+    """``primary``'s action, or ``fallback``'s where ``switch`` hands over. Keeps the switch's
+    per-env state; rsl_rl's ``Distillation`` calls ``reset(dones)`` every step."""
 
-    def __init__(self, primary: nn.Module, fallback: nn.Module, num_envs: int, num_joints: int,
-                 stall_steps: int, hand_steps: int, bar_m: float):
+    def __init__(self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: StallSwitch | TiltSwitch):
         super().__init__()
-        self.primary, self.fallback = primary, fallback
-        self.switch = StallSwitch(stall_steps, hand_steps, bar_m, num_joints)
+        self.primary, self.fallback, self.switch = primary, fallback, switch
         self.slots = torch.arange(num_envs)
 
     def forward(self, obs) -> torch.Tensor:

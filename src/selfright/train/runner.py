@@ -43,7 +43,8 @@ from selfright.train.checkpoints import (
 )
 from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
-from selfright.train.fallback_teacher import StallFallbackTeacher
+from selfright.policies.stall import StallSwitch, TiltSwitch
+from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.vecenv import RecoveryVecEnv
 
 PROGRESS_EVERY_S = 10.0
@@ -259,8 +260,9 @@ class TrainingRun:
         self.t0 = time.time()
 
     def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
-        """Replace rsl_rl's teacher by ``StallFallbackTeacher`` (the ``--teacher`` and the
-        fallback checkpoint, same network); loads both unless a resumed checkpoint will."""
+        """Replace rsl_rl's teacher by ``FallbackTeacher`` (the ``--teacher`` and the fallback
+        checkpoint, same network, handing over by the tilt or the stall rule); loads both
+        unless a resumed checkpoint will."""
         s, alg = self.spec, self.runner.alg
         d = s.train.distillation
         ckpt = latest_checkpoint(path)
@@ -274,12 +276,13 @@ class TrainingRun:
                 primary.load_state_dict(torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)["actor_state_dict"])
         except RuntimeError as e:
             raise ValueError(f"--train.distillation.fallback-teacher {path} must have the --teacher's network: {e}") from None
-        dt = s.bench.sim.control_dt_s
-        bar = goal_height_m(s.bench.goal, self.env.env.robot.leg_length_m)
-        composite = StallFallbackTeacher(
-            primary, second, s.num_envs, self.env.env.robot.num_joints,
-            stall_steps=round(d.stall_s / dt), hand_steps=round(d.fallback_s / dt), bar_m=bar,
-        ).to(s.device).eval()
+        if d.fallback_tilt_deg > 0:
+            switch: StallSwitch | TiltSwitch = TiltSwitch(d.fallback_tilt_deg)
+        else:
+            dt = s.bench.sim.control_dt_s
+            bar = goal_height_m(s.bench.goal, self.env.env.robot.leg_length_m)
+            switch = StallSwitch(round(d.stall_s / dt), round(d.fallback_s / dt), bar, self.env.env.robot.num_joints)
+        composite = FallbackTeacher(primary, second, s.num_envs, switch).to(s.device).eval()
         alg.teacher = alg._raw_teacher = composite
         alg.teacher_loaded = True
 

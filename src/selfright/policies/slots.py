@@ -1,0 +1,22 @@
+"""Per-slot buffers of deployed policies: a tensor with one row per env slot that grows to
+the largest slot index seen (evaluation hands out slot ids; training has a fixed number).
+Shared by ``ObsHistory``, ``HiddenStates`` and ``StallSwitch``."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+
+def slot_index(ids: np.ndarray | torch.Tensor) -> torch.Tensor:
+    """Slot ids (k,) as a CPU index tensor."""
+    return torch.as_tensor(np.asarray(ids.cpu() if isinstance(ids, torch.Tensor) else ids), dtype=torch.long)
+
+
+def grown(buf: torch.Tensor, slots: torch.Tensor, fill: float | bool = 0) -> torch.Tensor:
+    """``buf`` with rows of ``fill`` appended so that every index in ``slots`` is a row
+    (``buf`` itself when it already is)."""
+    n = int(slots.max()) + 1 if len(slots) else 0
+    if n <= buf.shape[0]:
+        return buf
+    return torch.cat([buf, torch.full((n - buf.shape[0], *buf.shape[1:]), fill, dtype=buf.dtype)])
