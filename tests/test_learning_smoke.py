@@ -250,6 +250,17 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert reward_summary({"role": "teacher"}).startswith("unknown")
 
 
+def test_model_card_names_the_fallback_teacher_and_its_rule():
+    from selfright.train.ship import _fallback_teacher
+
+    assert _fallback_teacher({"train_config": {"distillation": {"fallback_teacher": None}}}) == (None, "")
+    tilt = {"train_config": {"distillation": {"fallback_teacher": "runs/e/model_1.pt", "fallback_tilt_deg": 45.0}}}
+    fb, words = _fallback_teacher(tilt)
+    assert fb == "runs/e/model_1.pt" and "within 45°" in words and "`runs/e/model_1.pt` where it is tilted more" in words
+    stall = {"train_config": {"distillation": {"fallback_teacher": "b.pt", "fallback_tilt_deg": 0.0, "fallback_s": 1.0}}}
+    assert "1.0 s after each stall" in _fallback_teacher(stall)[1]
+
+
 def _distil_tiny_student(tmp_path: Path, **distillation: Any) -> tuple[TrainingRun, Path, Path, Path]:
     """A tiny teacher, then a student with the given ``DistillationConfig`` fields, exported:
     (the student's run, its folder, its ONNX graph, its policy file)."""

@@ -99,6 +99,18 @@ def _budget(label: str, checkpoint: str | None) -> str:
     return f"; {label}: {int(t.get('env_steps', 0)):,} env steps, {float(t.get('wall_clock_s', 0.0)) / 3600:.2f} h"
 
 
+def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
+    """The distillation's second teacher (``--train.distillation.fallback-teacher``) and the
+    words for where it labelled; (None, "") without one."""
+    d = (meta.get("train_config") or {}).get("distillation") or {}
+    fb = d.get("fallback_teacher")
+    if not fb:
+        return None, ""
+    if d.get("fallback_tilt_deg", 0.0) > 0:
+        return fb, f" where the trunk is upright within {d['fallback_tilt_deg']:g}°, and from `{fb}` where it is tilted more"
+    return fb, f" except for {d.get('fallback_s')} s after each stall, labelled by `{fb}`"
+
+
 def model_card(
     name: str, meta: dict[str, Any], summary: dict[str, Any], actor: ActorMeta, notes: str = ""
 ) -> str:
@@ -110,6 +122,7 @@ def model_card(
     hours = float(meta.get("wall_clock_s", 0.0)) / 3600
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
     teacher = meta.get("teacher")
+    fallback, fallback_words = _fallback_teacher(meta)
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     pol = meta.get("policy") or {}
@@ -119,11 +132,12 @@ def model_card(
         f"- **Role**: {meta.get('role')} (observation group `{actor.obs_group}`"
         + (f", its last {actor.obs_history} frames stacked oldest first" if actor.obs_history > 1 else "")
         + (f", through a GRU of {actor.gru_dim} units that remembers the episode)" if actor.gru_dim > 0 else ")")
-        + (f", distilled from `{teacher}`" if teacher else ""),
+        + (f", distilled from `{teacher}`{fallback_words}" if teacher else ""),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
         + _budget("its teacher", teacher)
+        + _budget("its fallback teacher", fallback)
         + _budget("before that, its initialisation", meta.get("init_from")),
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
