@@ -38,6 +38,7 @@ class TiltSwitch:
         if not 0.0 < tilt_deg < 180.0:
             raise ValueError(f"tilt_deg must lie in (0, 180), got {tilt_deg}")
         self.tilt_deg = tilt_deg
+        self.when = f"tilted over {tilt_deg:g} deg"
         self._cos = math.cos(math.radians(tilt_deg))
 
     def reset(self, slots: torch.Tensor) -> None:
@@ -54,6 +55,7 @@ class StallSwitch:
 
     def __init__(self, stall_steps: int, hand_steps: int, bar_m: float | None = None, num_joints: int = 12):
         self.needs_teacher = bar_m is not None
+        self.when = "stalled"
         self.stall_steps, self.hand_steps, self.bar_m = stall_steps, hand_steps, bar_m
         self.qd = joint_vel_columns(num_joints)
         self.height = teacher_height_column(num_joints)

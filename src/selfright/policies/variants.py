@@ -1,7 +1,8 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
 actions from its training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, and one that hands over to a second policy when it stalls
-(``scripts/policy_variants.py``)."""
+mean of its members' actions, and one that hands over to a second policy when it stalls or
+while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labelled the shipped
+``flat`` student's distillation)."""
 
 from __future__ import annotations
 
@@ -77,8 +78,7 @@ class Fallback(Policy):
         extra = {"teacher"} if switch.needs_teacher else set()
         self.groups = tuple(sorted(set(first.groups) | set(second.groups) | extra))
         self.action_mapping = first.action_mapping
-        when = f"tilted over {switch.tilt_deg:g} deg" if isinstance(switch, TiltSwitch) else "stalled"
-        self.name = f"{first.name}, then {second.name} when {when}"
+        self.name = f"{first.name}, then {second.name} when {switch.when}"
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.first.reset(ids, seeds)
