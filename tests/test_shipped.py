@@ -65,3 +65,18 @@ def test_shipped_policy_records_a_fixed_pose_reference(name: str):
     """Every shipped policy maps actions around a standing pose (``stand`` or ``tall``), which
     the benchmark's default ``stand`` mapping converts exactly (tests/test_reference.py)."""
     assert load_policy_file(CHECKPOINT_DIR / f"{name}.pt").action_mapping in {("stand", 0.5), ("tall", 0.5)}
+
+
+def test_a_resumed_evaluation_refuses_other_weights_under_the_same_name(tmp_path: Path):
+    """run.json records the weights' digest: results of one `flat` are never resumed with another."""
+    from selfright.evaluate.results import ResultsError
+    from selfright.evaluate.runner import evaluate_grid
+
+    cfg = BenchmarkConfig()
+    flat, teacher = make_policy("flat", cfg), make_policy("flat-teacher", cfg)
+    sr = make_policy("sr", cfg)
+    assert flat.digest and teacher.digest and flat.digest != teacher.digest and sr.digest not in (None, flat.digest)
+    assert make_policy("zero", cfg).digest is None
+    evaluate_grid(flat, policy_name="flat", grid="tiny", episodes=1, seed=0, out_dir=tmp_path, cfg=cfg, progress=False)
+    with pytest.raises(ResultsError, match="policy_digest"):
+        evaluate_grid(teacher, policy_name="flat", grid="tiny", episodes=1, seed=0, out_dir=tmp_path, cfg=cfg, progress=False)

@@ -80,6 +80,8 @@ def evaluate_grid(
     out_dir = Path(out_dir)
     prepare_out_dir(out_dir)
     identity = {"policy": policy_name, "grid": grid, "episodes_per_cell": episodes, "seed": seed, "config": to_dict(cfg)}
+    if policy.digest is not None:  # the weights, so a resume never mixes two versions of a named policy
+        identity["policy_digest"] = policy.digest
     check_run_identity(out_dir, identity)
     csv_path = out_dir / "episodes.csv"
     order = {(c.slope_level, c.roughness_level): k for k, c in enumerate(cells)}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import abc
+import hashlib
 from collections.abc import Sequence
 
 import numpy as np
@@ -26,6 +27,10 @@ class Policy(abc.ABC):
     action_mapping: tuple[str, float] | None = None
     """(``ActionConfig.reference``, ``scale_rad``) its actions were trained for; None if not
     recorded (baselines convert their targets for any mapping)."""
+    digest: str | None = None
+    """Short SHA-256 of the weights it acts with (the files it was loaded from), recorded in an
+    evaluation's ``run.json`` so that a resumed run refuses results of other weights under
+    the same name; None for policies that are code only."""
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:  # noqa: B027 - optional hook
         """Forget per-episode memory of slots ``ids`` (called when their episodes start).
@@ -50,3 +55,11 @@ class CallablePolicy(Policy):
     @torch.no_grad()
     def act(self, obs, ids, contexts):
         return torch.as_tensor(self.fn(obs[self.group]), dtype=torch.float32)
+
+
+def combined_digest(policies: Sequence[Policy]) -> str | None:
+    """One digest for a policy made of others (None if none of them has weights)."""
+    parts = [p.digest or "" for p in policies]
+    if not any(parts):
+        return None
+    return hashlib.sha256("/".join(parts).encode()).hexdigest()[:16]

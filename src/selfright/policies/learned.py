@@ -8,6 +8,7 @@ one ``ValueError`` line naming the file and what to do.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import warnings
 import zipfile
@@ -135,6 +136,7 @@ def load_policy_file(path: str | Path) -> Policy:
     else:
         raise ValueError(f"policy file {p} has unsupported type {p.suffix!r}; use .pt, .jit or .onnx")
     _probe(policy, p)
+    policy.digest = hashlib.sha256(p.read_bytes()).hexdigest()[:16]
     return policy
 
 

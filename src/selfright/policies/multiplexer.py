@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from selfright.policies.base import Policy
+from selfright.policies.base import Policy, combined_digest
 
 
 class ContextMultiplexer(Policy):
@@ -20,6 +20,7 @@ class ContextMultiplexer(Policy):
     def __init__(self, policies: dict[str, Policy], default: str = "flat"):
         self.policies = policies
         self.default = default
+        self.digest = combined_digest([policies[k] for k in sorted(policies)])
 
     def reset(self, ids, seeds=None):
         for p in self.policies.values():

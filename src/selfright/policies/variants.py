@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from selfright.policies.base import Policy
+from selfright.policies.base import Policy, combined_digest
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
@@ -24,6 +24,7 @@ class MeanOf(Policy):
         self.groups = tuple(sorted({g for p in self.members for g in p.groups}))
         self.action_mapping = self.members[0].action_mapping
         self.name = "mean of " + ", ".join(p.name for p in self.members)
+        self.digest = combined_digest(self.members)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         for p in self.members:
@@ -40,6 +41,7 @@ class Noisy(Policy):
         self.inner, self.std = inner, std.float()
         self.groups, self.action_mapping = inner.groups, inner.action_mapping
         self.name = f"{inner.name} + noise"
+        self.digest = inner.digest
         self._rng: dict[int, np.random.Generator] = {}
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
@@ -79,6 +81,7 @@ class Fallback(Policy):
         self.groups = tuple(sorted(set(first.groups) | set(second.groups) | extra))
         self.action_mapping = first.action_mapping
         self.name = f"{first.name}, then {second.name} when {switch.when}"
+        self.digest = combined_digest([first, second])
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.first.reset(ids, seeds)
