@@ -4,7 +4,8 @@
 #   bash scripts/train_policies.sh flat-teacher      # PPO teacher on the flat plane (~10.6 M steps)
 #   bash scripts/train_policies.sh context-teachers  # rough teacher fine-tuned from it; the flat escape specialist
 #                                                    # (it, with large noise, from its stall postures); a `tall`-reference
-#                                                    # flat teacher from scratch, and the incline teacher from that
+#                                                    # flat teacher from scratch, the incline teacher from that, and its
+#                                                    # escape specialist
 #   bash scripts/train_policies.sh students          # distil the three sensor-only students
 #   bash scripts/train_policies.sh ship              # evaluate (64 episodes, seed 0) and ship all six
 #
@@ -75,6 +76,15 @@ case $stage in
       resume_or_start runs/incline_teacher --init-from runs/flat_teacher_tall/model_1271.pt -- --role teacher \
         --context incline --physics-threads 1 --iterations 423 --action-reference tall --train.ppo.desired-kl 0.005 \
         --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 --train.episode.curriculum
+      # Its escape specialist on the 20 deg slope, as the flat one; iteration 646 labels the incline student.
+      if ! has_ckpt runs/incline_escape; then
+        mkdir -p runs/incline_escape_init && cp runs/incline_teacher/train_meta.json runs/incline_escape_init/
+        python -c "import torch; c = torch.load('runs/incline_teacher/model_422.pt', weights_only=False); c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, 'runs/incline_escape_init/model_422.pt')"
+      fi
+      resume_or_start runs/incline_escape --init-from runs/incline_escape_init/model_422.pt -- --role teacher \
+        --context incline --physics-threads 1 --iterations 647 --action-reference tall --train.ppo.learning-rate 1.5e-5 \
+        --train.ppo.entropy-coef 0.01 --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 \
+        --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
     ) &
     wait
     ;;
@@ -87,11 +97,13 @@ case $stage in
     ENVS=512 run runs/flat_student --role student --context flat --teacher runs/flat_teacher --physics-threads 1 \
       --iterations 361 --train.distillation.fallback-teacher runs/flat_escape/model_966.pt \
       --train.distillation.fallback-tilt-deg 45 $(has_ckpt runs/flat_student && echo --resume) &
-    # The shipped incline student was distilled with 4x the batch and a 25-frame (0.5 s) history;
-    # its iteration 170 ships (chosen on seeds 0-11, measured on seeds 12-19: docs/training.md),
-    # so the run stops there and `ship` takes its last checkpoint.
+    # The incline student: 4x the batch, a 25-frame (0.5 s) history, and the tilt composite of the
+    # incline teacher and its escape specialist; its iteration 72 ships (chosen on seeds 4-11,
+    # measured on seeds 0-3 and 12-19: docs/training.md), so the run stops there and `ship` takes
+    # its last checkpoint.
     ENVS=512 run runs/incline_student --role student --context incline --teacher runs/incline_teacher \
-      --physics-threads 2 --iterations 171 --action-reference tall --train.distillation.student-history 25 \
+      --physics-threads 1 --iterations 73 --action-reference tall --train.distillation.student-history 25 \
+      --train.distillation.fallback-teacher runs/incline_escape/model_646.pt --train.distillation.fallback-tilt-deg 45 \
       $(has_ckpt runs/incline_student && echo --resume) &
     wait
     ;;
