@@ -31,7 +31,7 @@ from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
-from selfright.policies.stall import StallSwitch, TiltSwitch
+from selfright.policies.stall import hand_over_rule
 from selfright.policies.variants import Fallback, MeanOf, Noisy, trained_std
 from selfright.robots import get_robot
 
@@ -72,12 +72,9 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         raise ValueError("give --fallback-s or --tilt-deg, not both")
     if (a.fallback_s > 0 or a.tilt_deg > 0) and len(members) != 2:
         raise ValueError("--fallback-s and --tilt-deg take two policies")
-    if a.tilt_deg > 0:
-        return Fallback(*members, TiltSwitch(a.tilt_deg))
-    if a.fallback_s > 0:
-        dt = cfg.sim.control_dt_s
+    if a.fallback_s > 0 or a.tilt_deg > 0:
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
-        return Fallback(*members, StallSwitch(round(a.stall_s / dt), round(a.fallback_s / dt), bar))
+        return Fallback(*members, hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar))
     return members[0] if len(members) == 1 else MeanOf(members)
 
 

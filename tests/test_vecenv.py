@@ -156,14 +156,19 @@ def test_incline_curriculum_levels_move_with_the_goal_window():
     assert env.curriculum and (torch.from_numpy(env.env.world_idx) == 0).all()  # everyone starts easy
     ids = torch.arange(3)
     env.tail_goal_steps[:] = torch.tensor([env.window, env.window, 0])
-    env._update_levels(ids, torch.tensor([False, True, False]))
+    no = torch.zeros(3, dtype=torch.bool)  # none stopped on success
+
+    def update(rows, left_tile):
+        env._update_levels(rows, env._ended_in_goal(rows, no[: len(rows)]), left_tile)
+
+    update(ids, torch.tensor([False, True, False]))
     assert env.level.tolist() == [1, 0, 0]  # promoted; left the tile; never in the goal
-    env._update_levels(ids[:1], torch.tensor([False]))
+    update(ids[:1], torch.tensor([False]))
     assert env.level.tolist() == [1, 0, 0]  # clamped at the top
     env._reset(np.arange(3))
     assert env.env.world_idx.tolist() == [1, 0, 0]
     env.tail_goal_steps[:] = 0
-    env._update_levels(ids, torch.zeros(3, dtype=torch.bool))
+    update(ids, torch.zeros(3, dtype=torch.bool))
     assert env.level.tolist() == [0, 0, 0]
     env.close()
 

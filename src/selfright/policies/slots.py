@@ -10,7 +10,7 @@ import torch
 
 def slot_index(ids: np.ndarray | torch.Tensor) -> torch.Tensor:
     """Slot ids (k,) as a CPU index tensor."""
-    return torch.as_tensor(np.asarray(ids.cpu() if isinstance(ids, torch.Tensor) else ids), dtype=torch.long)
+    return torch.as_tensor(ids, dtype=torch.long).cpu()
 
 
 def grown(buf: torch.Tensor, slots: torch.Tensor, fill: float | bool = 0) -> torch.Tensor:

@@ -57,6 +57,7 @@ class StallSwitch:
         self.needs_teacher = bar_m is not None
         self.when = "stalled"
         self.stall_steps, self.hand_steps, self.bar_m = stall_steps, hand_steps, bar_m
+        self._tilted = TiltSwitch(TILT_DEG)
         self.qd = joint_vel_columns(num_joints)
         self.height = teacher_height_column(num_joints)
         self._still = torch.zeros(0, dtype=torch.long)
@@ -82,7 +83,7 @@ class StallSwitch:
         first, the teacher's if ``bar_m`` is set. Returns (k,) bool: the second policy acts."""
         slots = self._slots(slots)
         x = x.detach().cpu()
-        upright = -x[:, 2] >= math.cos(math.radians(TILT_DEG))
+        upright = ~self._tilted.step(x, slots)
         if self.bar_m is not None:
             upright &= x[:, self.height] >= self.bar_m  # upright but low is a stall too
         still = (x[:, self.qd].norm(dim=1) / JOINT_VEL_SCALE < JOINT_SPEED_RAD_S) & (x[:, 3:6].norm(dim=1) < ANG_SPEED_RAD_S)
@@ -96,3 +97,14 @@ class StallSwitch:
         self._still = self._still.index_copy(0, slots, count)
         self._left = self._left.index_copy(0, slots, left)
         return handing | start
+
+
+def hand_over_rule(
+    tilt_deg: float, stall_s: float, hand_s: float, control_dt_s: float, bar_m: float | None = None, num_joints: int = 12
+) -> TiltSwitch | StallSwitch:
+    """The rule a user picked: ``TiltSwitch(tilt_deg)`` if ``tilt_deg`` > 0, else a
+    ``StallSwitch`` that hands over after ``stall_s`` of stillness for ``hand_s`` (seconds,
+    converted to control steps of ``control_dt_s``)."""
+    if tilt_deg > 0:
+        return TiltSwitch(tilt_deg)
+    return StallSwitch(round(stall_s / control_dt_s), round(hand_s / control_dt_s), bar_m, num_joints)

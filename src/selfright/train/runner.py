@@ -33,6 +33,7 @@ from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m
+from selfright.policies.stall import hand_over_rule
 from selfright.train.checkpoints import (
     CHECKPOINT_RE,
     META_FILE,
@@ -43,7 +44,6 @@ from selfright.train.checkpoints import (
 )
 from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
-from selfright.policies.stall import StallSwitch, TiltSwitch
 from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.vecenv import RecoveryVecEnv
 
@@ -276,12 +276,9 @@ class TrainingRun:
                 primary.load_state_dict(torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)["actor_state_dict"])
         except RuntimeError as e:
             raise ValueError(f"--train.distillation.fallback-teacher {path} must have the --teacher's network: {e}") from None
-        if d.fallback_tilt_deg > 0:
-            switch: StallSwitch | TiltSwitch = TiltSwitch(d.fallback_tilt_deg)
-        else:
-            dt = s.bench.sim.control_dt_s
-            bar = goal_height_m(s.bench.goal, self.env.env.robot.leg_length_m)
-            switch = StallSwitch(round(d.stall_s / dt), round(d.fallback_s / dt), bar, self.env.env.robot.num_joints)
+        robot = self.env.env.robot
+        switch = hand_over_rule(d.fallback_tilt_deg, d.stall_s, d.fallback_s, s.bench.sim.control_dt_s,
+                                goal_height_m(s.bench.goal, robot.leg_length_m), robot.num_joints)
         composite = FallbackTeacher(primary, second, s.num_envs, switch).to(s.device).eval()
         alg.teacher = alg._raw_teacher = composite
         alg.teacher_loaded = True

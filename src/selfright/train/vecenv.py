@@ -91,8 +91,6 @@ class RecoveryVecEnv(VecEnv):
         self.term_names = tuple(reward_weights(train.reward))
         self.episode_sums = {name: torch.zeros(num_envs) for name in self.term_names}
         self.ever_succeeded = torch.zeros(num_envs, dtype=torch.bool)
-        self.stopped_on_success = torch.zeros(num_envs, dtype=torch.bool)
-        """Slots whose episode ends at this step because the goal hold completed."""
         ep = train.episode
         self.curriculum = ep.curriculum and len(worlds) > 1
         self.level = torch.zeros(num_envs, dtype=torch.long)
@@ -220,10 +218,11 @@ class RecoveryVecEnv(VecEnv):
             state[j, self.env.sl.time] = self.env.cfg.fall.settle_s
         return SettledStarts(state=state, sens=sens, diverged=diverged)
 
-    def _keep_stuck_ends(self, ids: torch.Tensor, excluded: torch.Tensor) -> None:
-        """Keep the end states of finished episodes that ended mostly outside the goal set
-        (``excluded``: diverged or off the tile, whose end says nothing useful)."""
-        stuck = ~self._ended_in_goal(ids) & ~excluded[ids]
+    def _keep_stuck_ends(self, ids: torch.Tensor, in_goal: torch.Tensor, excluded: torch.Tensor) -> None:
+        """Keep the end states of finished episodes that did not end in the goal set
+        (``in_goal``, per id: ``_ended_in_goal``; ``excluded``: diverged or off the tile, whose
+        end says nothing useful)."""
+        stuck = ~in_goal & ~excluded[ids]
         env = self.env
         if self.tilted_only and stuck.any():
             rs = env.robot_state(ids.numpy())
@@ -305,7 +304,6 @@ class RecoveryVecEnv(VecEnv):
         if not ep.off_tile_is_timeout:
             terminated |= left_tile
         succeeded = out.succeeded if ep.terminate_on_success else torch.zeros_like(out.succeeded)
-        self.stopped_on_success = succeeded
         if not ep.success_is_timeout:
             terminated |= succeeded
         time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile | succeeded) & ~terminated
@@ -319,6 +317,7 @@ class RecoveryVecEnv(VecEnv):
             self.episode_sums[name] += value
         done_ids = dones.nonzero(as_tuple=False).flatten()
         if len(done_ids) > 0:
+            in_goal = self._ended_in_goal(done_ids, succeeded[done_ids])
             for name in self.term_names:
                 log[f"Episode_Reward/{name}"] = self.episode_sums[name][done_ids].mean()
             log["Episode/success_rate"] = self.ever_succeeded[done_ids].float().mean()
@@ -326,13 +325,13 @@ class RecoveryVecEnv(VecEnv):
             log["Episode/left_tile_rate"] = left_tile[done_ids].float().mean()
             log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
             if self.curriculum:
-                self._update_levels(done_ids, left_tile[done_ids])
+                self._update_levels(done_ids, in_goal, left_tile[done_ids])
                 log["Curriculum/mean_level"] = self.level.float().mean()
                 log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
             if self.replay_share > 0:
-                self._keep_failed_starts(done_ids, diverged)
+                self._keep_failed_starts(done_ids, in_goal, diverged)
             if self.restart_share > 0:
-                self._keep_stuck_ends(done_ids, diverged | left_tile)
+                self._keep_stuck_ends(done_ids, in_goal, diverged | left_tile)
             if self.replay_share > 0 or self.restart_share > 0:
                 log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
@@ -340,27 +339,28 @@ class RecoveryVecEnv(VecEnv):
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
 
-    def _keep_failed_starts(self, ids: torch.Tensor, diverged: torch.Tensor) -> None:
-        """Queue the starts of finished episodes that ended mostly outside the goal set
-        (diverged ones excluded: their start says nothing about the policy)."""
-        failed = ~self._ended_in_goal(ids) & ~diverged[ids]
+    def _keep_failed_starts(self, ids: torch.Tensor, in_goal: torch.Tensor, diverged: torch.Tensor) -> None:
+        """Queue the starts of finished episodes that did not end in the goal set (``in_goal``,
+        per id; diverged ones excluded: their start says nothing about the policy)."""
+        failed = ~in_goal & ~diverged[ids]
         for i in ids[failed].tolist():
             start = self.slot_start[i]
             if start is not None:
                 self.failed_starts.append(start)
 
-    def _ended_in_goal(self, ids: torch.Tensor) -> torch.Tensor:
+    def _ended_in_goal(self, ids: torch.Tensor, succeeded: torch.Tensor) -> torch.Tensor:
         """Whether the finished episodes in slots ``ids`` spent at least half of their final
-        ``window`` steps in the goal set, or stopped on success (``terminate_on_success``):
-        what the curriculum and replay call success."""
-        return (self.tail_goal_steps[ids] * 2 >= self.window) | self.stopped_on_success[ids]
+        ``window`` steps in the goal set, or stopped on success (``succeeded``, per id; with
+        ``terminate_on_success``): what the curriculum and replay call success."""
+        return (self.tail_goal_steps[ids] * 2 >= self.window) | succeeded
 
-    def _update_levels(self, ids: torch.Tensor, left_tile: torch.Tensor) -> None:
-        """Promote slots whose finished episode spent at least half its final window in the
-        goal set; demote those that spent none of it there or left the tile."""
-        up = self._ended_in_goal(ids) & ~left_tile
+    def _update_levels(self, ids: torch.Tensor, in_goal: torch.Tensor, left_tile: torch.Tensor) -> None:
+        """Promote slots whose finished episode ended in the goal set (``in_goal``, per id:
+        ``_ended_in_goal``); demote those that spent none of their final window there (and did
+        not stop on success) or left the tile."""
+        up = in_goal & ~left_tile
         # never together with up: up needs tail ≥ 1 or a success, on the tile
-        down = ((self.tail_goal_steps[ids] == 0) & ~self.stopped_on_success[ids]) | left_tile
+        down = ((self.tail_goal_steps[ids] == 0) & ~in_goal) | left_tile
         step = up.long() - down.long()
         self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)
 
