@@ -18,6 +18,7 @@ from selfright.policies.actor import (
     export_onnx,
     load_actor_file,
     save_actor_file,
+    teacher_checkpoint,
 )
 from selfright.policies.base import Policy
 from selfright.policies.learned import load_policy_file
@@ -59,6 +60,20 @@ def test_student_checkpoint_exports_the_student():
     ckpt = {"student_state_dict": student.state_dict(), "teacher_state_dict": teacher.state_dict()}
     actor = actor_from_checkpoint(ckpt)
     assert actor.meta.obs_group == "student" and actor.meta.role == "student"
+
+
+def test_teacher_checkpoint_loads_into_rsl_rl_and_acts_the_same():
+    """A policy file turned back into a PPO checkpoint (``scripts/actor_to_run.py``) loads
+    strictly into rsl_rl's actor, as distillation loads its teacher, and acts as the file does."""
+    model = rsl_actor(79, "teacher")
+    actor = actor_from_checkpoint({"actor_state_dict": model.state_dict(), "iter": 7}, {"context": "rough"})
+    ckpt = teacher_checkpoint(actor)
+    fresh = rsl_actor(79, "teacher", seed=5)
+    fresh.load_state_dict(ckpt["actor_state_dict"], strict=True)
+    x = random_obs(32, 79)
+    with torch.no_grad():
+        torch.testing.assert_close(fresh.eval()(TensorDict({"teacher": x}, batch_size=[32])), actor(x), atol=0, rtol=0)
+    assert ckpt["iter"] == 7 and ckpt["infos"]["context"] == "rough" and ckpt["infos"]["hidden_dims"] == list(HIDDEN)
 
 
 def test_onnx_and_torch_agree(tmp_path: Path):

@@ -140,6 +140,27 @@ def test_average_checkpoints_means_the_actor_and_keeps_the_rest(tmp_path, monkey
     assert avg["iter"] == 1 and torch.equal(avg["critic_state_dict"]["mlp.0.weight"], torch.full((1, 2), 1.0))
 
 
+def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeypatch):
+    from selfright.policies.actor import actor_from_checkpoint, load_actor_file
+    from selfright.policies.registry import shipped_path
+    from selfright.train.checkpoints import latest_checkpoint, read_meta
+    from selfright.train.config import PolicyConfig
+    from selfright.train.runner import teacher_policy_config
+
+    import torch
+
+    out = tmp_path / "rough_teacher"
+    run_script("actor_to_run.py", ["--policy", "rough-teacher", "--out", str(out)], monkeypatch)
+    ckpt = latest_checkpoint(out)
+    cfg, meta = teacher_policy_config(ckpt, PolicyConfig())
+    assert meta["role"] == "teacher" and meta["context"] == "rough" and cfg.hidden_dims == (256, 128, 64)
+    back = actor_from_checkpoint(torch.load(ckpt, weights_only=True), meta["policy"])
+    shipped = load_actor_file(shipped_path("rough-teacher"))
+    assert all(torch.equal(a, b) for a, b in zip(back.state_dict().values(), shipped.state_dict().values()))
+    with pytest.raises(SystemExit):  # a student cannot be a distillation teacher
+        run_script("actor_to_run.py", ["--policy", "rough", "--out", str(tmp_path / "student")], monkeypatch)
+
+
 def test_seed_table_pools_seeds(tmp_path, monkeypatch, capsys):
     import json
 

@@ -276,6 +276,39 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
     return actor.eval()
 
 
+def teacher_checkpoint(actor: ActorMLP) -> dict[str, Any]:
+    """An rsl_rl PPO-style checkpoint (``actor_state_dict``, ``iter``, ``infos``) holding
+    ``actor``'s weights: the inverse of ``actor_from_checkpoint`` for a feed-forward actor, so
+    that a shipped or exported teacher can be distilled from (``--teacher``). It has no critic
+    or optimiser, so it cannot resume PPO; its action std (unused by a frozen teacher) is 1."""
+    m = actor.meta
+    if actor.recurrent:
+        raise ValueError("a recurrent actor has no PPO checkpoint form (teachers are feed-forward)")
+    sd: OrderedDict[str, torch.Tensor] = OrderedDict()
+    if m.obs_normalization:
+        mean, std = actor.obs_mean.detach().clone(), actor.obs_std.detach().clone()
+        sd["obs_normalizer._mean"] = mean.reshape(1, -1)
+        sd["obs_normalizer._var"] = (std * std).reshape(1, -1)
+        sd["obs_normalizer._std"] = std.reshape(1, -1)
+        sd["obs_normalizer.count"] = torch.tensor(0, dtype=torch.long)
+    sd["distribution.std_param"] = torch.ones(m.action_dim)
+    sd.update((k, v.detach().clone()) for k, v in actor.state_dict().items() if k.startswith("mlp."))
+    infos = {
+        "obs_group": m.obs_group,
+        "hidden_dims": list(m.hidden_dims),
+        "activation": m.activation,
+        "obs_normalization": m.obs_normalization,
+        "state_dependent_std": False,
+        "role": m.role or "teacher",
+        "context": m.context,
+        "action_reference": m.action_reference,
+        "action_scale_rad": m.action_scale_rad,
+        "obs_history": m.obs_history,
+        "source": m.source,
+    }
+    return {"actor_state_dict": sd, "iter": m.iteration, "infos": infos}
+
+
 # ---------------------------------------------------------------- policy file
 def actor_payload(actor: ActorMLP) -> dict[str, Any]:
     """The policy-file content: plain tensors and primitives only (``weights_only``-safe)."""
