@@ -1,7 +1,9 @@
 """Turn a policy file (a shipped teacher such as ``rough-teacher``, or a ``selfright export``
 ``.pt``) back into a teacher run folder that ``selfright train --role student --teacher``
 (and ``--train.distillation.fallback-teacher``) accept: ``model_<it>.pt`` holding the actor in
-rsl_rl's PPO checkpoint layout, and a ``train_meta.json`` with the network and action mapping.
+rsl_rl's PPO checkpoint layout, and a ``train_meta.json`` with the network and action mapping
+(for a shipped policy also its budget and, when Table I, its reward, read from its model card,
+so that a student's card can quote them).
 
 The actor's weights and normaliser are copied exactly, so the run folder evaluates to the same
 episodes as the policy file. Useful when a shipped teacher's training run is not on disk:
@@ -13,12 +15,14 @@ episodes as the policy file. Useful when a shipped teacher's training run is not
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+import re
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import torch
 import tyro
 
+from selfright.config import RewardConfig
 from selfright.policies.actor import load_actor_file, teacher_checkpoint
 from selfright.policies.registry import shipped_path
 from selfright.train.checkpoints import META_FILE
@@ -30,6 +34,31 @@ class Args:
     """A shipped policy name (``rough-teacher``) or a policy file (``.pt`` from ``selfright export``)."""
     out: Path
     """Run folder to write (created; refused if it already holds checkpoints)."""
+
+
+def card_record(card: Path) -> dict:
+    """What a shipped policy's model card (written by ``selfright ship``) says of its training:
+    env steps, iterations, envs, wall-clock, and the reward when it is Table I, so that a
+    student's card can quote its teacher's budget and reward. Empty where the card says nothing."""
+    if not card.is_file():
+        return {}
+    text, out = card.read_text(), {}
+    if m := re.search(r"\*\*Environment steps\*\*: ([\d,]+) \((\d+) iterations, (\d+) envs\)", text):
+        out.update(env_steps=int(m.group(1).replace(",", "")), iterations_done=int(m.group(2)), num_envs=int(m.group(3)))
+    if m := re.search(r"\*\*Wall-clock\*\*: ([\d.]+) h", text):
+        out["wall_clock_s"] = float(m.group(1)) * 3600
+    if m := re.search(r"\*\*Reward\*\*: the seed's Table I exactly \(z\* = ([^)]*)\)", text):
+        z = None if m.group(1) == "the robot's standing height" else float(m.group(1).removesuffix(" m"))
+        out["train_config"] = {"reward": {**asdict(RewardConfig()), "target_height_m": z}}
+    return out
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the working directory where it lies below it (as recorded paths are)."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
 
 
 def main(args: Args) -> None:
@@ -49,7 +78,9 @@ def main(args: Args) -> None:
         "role": "teacher",
         "context": actor.meta.context,
         "policy": ckpt["infos"],
-        "converted_from": str(path),
+        "latest_checkpoint": str(args.out / f"model_{it}.pt"),
+        **card_record(path.with_suffix(".md")),
+        "converted_from": _shown(path),
         "note": "actor weights only (no critic, no optimiser): a distillation teacher, not a PPO run to resume",
     }
     (args.out / META_FILE).write_text(json.dumps(meta, indent=2) + "\n")

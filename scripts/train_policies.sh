@@ -3,7 +3,8 @@
 #
 #   bash scripts/train_policies.sh flat-teacher      # PPO teacher on the flat plane (~10.6 M steps)
 #   bash scripts/train_policies.sh context-teachers  # rough teacher fine-tuned from it; the flat escape specialist
-#                                                    # (it, with large noise, from its stall postures); a `tall`-reference
+#                                                    # (it, with large noise, from its stall postures) and the rough one
+#                                                    # (the flat one, on rough ground); a `tall`-reference
 #                                                    # flat teacher from scratch, the incline teacher from that, and its
 #                                                    # escape specialist
 #   bash scripts/train_policies.sh students          # distil the three sensor-only students
@@ -68,6 +69,11 @@ case $stage in
       resume_or_start runs/flat_escape --init-from runs/flat_escape_init/model_3445.pt -- --role teacher --context flat \
         --physics-threads 1 --iterations 967 --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
         --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
+      # The rough escape specialist: the flat one trained on rough ground the same way; its
+      # iteration 1086 labels the rough student's tilted states.
+      resume_or_start runs/rough_escape --init-from runs/flat_escape/model_966.pt -- --role teacher --context rough \
+        --physics-threads 1 --iterations 1087 --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
+        --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
     ) &
     (
       # Action 0 = the taller standing pose; its iteration 1271 (92.2 % validation) starts the incline teacher.
@@ -89,8 +95,11 @@ case $stage in
     wait
     ;;
   students)
-    run runs/rough_student --role student --context rough --teacher runs/rough_teacher --physics-threads 1 \
-      --iterations 600 $(has_ckpt runs/rough_student && echo --resume) &
+    # The rough student, likewise from the tilt composite of the rough teacher and the rough escape
+    # specialist; 256 envs, its last checkpoint (799) ships (chosen on seeds 4-11: docs/training.md).
+    ENVS=256 run runs/rough_student --role student --context rough --teacher runs/rough_teacher --physics-threads 1 \
+      --iterations 800 --train.distillation.fallback-teacher runs/rough_escape/model_1086.pt \
+      --train.distillation.fallback-tilt-deg 45 $(has_ckpt runs/rough_student && echo --resume) &
     # The flat student learns from a composite: the flat teacher where the trunk is upright within
     # 45 deg, the escape specialist where it is tilted more; 512 envs, iteration 360 ships (chosen on
     # seeds 4-11, measured on seeds 0-3 and 12-19: docs/training.md).
