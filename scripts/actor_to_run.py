@@ -15,17 +15,16 @@ episodes as the policy file. Useful when a shipped teacher's training run is not
 from __future__ import annotations
 
 import json
-import re
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import torch
 import tyro
 
-from selfright.config import RewardConfig
 from selfright.policies.actor import load_actor_file, teacher_checkpoint
 from selfright.policies.registry import shipped_path
 from selfright.train.checkpoints import META_FILE
+from selfright.train.ship import card_record
 
 
 @dataclass(frozen=True)
@@ -34,23 +33,6 @@ class Args:
     """A shipped policy name (``rough-teacher``) or a policy file (``.pt`` from ``selfright export``)."""
     out: Path
     """Run folder to write (created; refused if it already holds checkpoints)."""
-
-
-def card_record(card: Path) -> dict:
-    """What a shipped policy's model card (written by ``selfright ship``) says of its training:
-    env steps, iterations, envs, wall-clock, and the reward when it is Table I, so that a
-    student's card can quote its teacher's budget and reward. Empty where the card says nothing."""
-    if not card.is_file():
-        return {}
-    text, out = card.read_text(), {}
-    if m := re.search(r"\*\*Environment steps\*\*: ([\d,]+) \((\d+) iterations, (\d+) envs\)", text):
-        out.update(env_steps=int(m.group(1).replace(",", "")), iterations_done=int(m.group(2)), num_envs=int(m.group(3)))
-    if m := re.search(r"\*\*Wall-clock\*\*: ([\d.]+) h", text):
-        out["wall_clock_s"] = float(m.group(1)) * 3600
-    if m := re.search(r"\*\*Reward\*\*: the seed's Table I exactly \(z\* = ([^)]*)\)", text):
-        z = None if m.group(1) == "the robot's standing height" else float(m.group(1).removesuffix(" m"))
-        out["train_config"] = {"reward": {**asdict(RewardConfig()), "target_height_m": z}}
-    return out
 
 
 def _shown(path: Path) -> str:
@@ -72,19 +54,20 @@ def main(args: Args) -> None:
     if any(args.out.glob("model_*.pt")):
         raise SystemExit(f"{args.out} already holds checkpoints; choose a new --out")
     args.out.mkdir(parents=True, exist_ok=True)
-    it = max(int(ckpt["iter"]), 0)
-    torch.save(ckpt, args.out / f"model_{it}.pt")
+    out = args.out / f"model_{max(int(ckpt['iter']), 0)}.pt"
+    torch.save(ckpt, out)
+    card = path.with_suffix(".md")
     meta = {
         "role": "teacher",
         "context": actor.meta.context,
         "policy": ckpt["infos"],
-        "latest_checkpoint": str(args.out / f"model_{it}.pt"),
-        **card_record(path.with_suffix(".md")),
+        "latest_checkpoint": str(out),
+        **(card_record(card.read_text()) if card.is_file() else {}),
         "converted_from": _shown(path),
         "note": "actor weights only (no critic, no optimiser): a distillation teacher, not a PPO run to resume",
     }
     (args.out / META_FILE).write_text(json.dumps(meta, indent=2) + "\n")
-    print(f"wrote {args.out / f'model_{it}.pt'} (from {path}, iteration {actor.meta.iteration})")
+    print(f"wrote {out} (from {path}, iteration {actor.meta.iteration})")
 
 
 if __name__ == "__main__":

@@ -250,6 +250,17 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert reward_summary({"role": "teacher"}).startswith("unknown")
 
 
+def test_card_record_reads_back_what_a_card_states():
+    from selfright.train.ship import card_record
+
+    card = ("- **Environment steps**: 261,120 (85 iterations, 128 envs); its teacher: 1 env steps, 0.01 h\n"
+            "- **Reward**: the seed's Table I exactly (z* = 0.37 m)\n- **Wall-clock**: 0.05 h\n")
+    rec = card_record(card)
+    assert (rec["env_steps"], rec["iterations_done"], rec["num_envs"], rec["wall_clock_s"]) == (261_120, 85, 128, 180.0)
+    assert reward_summary({"role": "teacher", **rec}) == "the seed's Table I exactly (z* = 0.37 m)"
+    assert "train_config" not in card_record("- **Reward**: **not** the seed's Table I: goal-set term weight 8.0")
+
+
 def test_model_card_names_the_fallback_teacher_and_its_rule():
     from selfright.train.ship import _fallback_teacher
 

@@ -10,7 +10,8 @@ and the evaluation's ``summary.json`` (success with its Wilson interval, N, TTR,
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, fields
+import re
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,6 +20,11 @@ from selfright.policies.registry import CHECKPOINT_DIR
 
 if TYPE_CHECKING:
     from selfright.policies.actor import ActorMeta
+
+TABLE_I_WORDS = "the seed's Table I exactly"
+"""How a card's Reward line names the seed's Table I (``reward_summary``; read by ``card_record``)."""
+STANDING_HEIGHT_WORDS = "the robot's standing height"
+"""How a card names the default z* (``RewardConfig.target_height_m`` None)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -178,7 +184,7 @@ def reward_summary(meta: dict[str, Any]) -> str:
         return "unknown (no train_config recorded)"
     table = RewardConfig()
     z = reward.get("target_height_m")
-    z_txt = "the robot's standing height" if z is None else f"{z} m"
+    z_txt = STANDING_HEIGHT_WORDS if z is None else f"{z} m"
     changed = [
         f"{f.name} {reward[f.name]} (Table I: {getattr(table, f.name)})"
         for f in fields(RewardConfig)
@@ -187,8 +193,24 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if reward.get("goal_set"):
         changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
     if not changed:
-        return f"the seed's Table I exactly (z* = {z_txt})"
+        return f"{TABLE_I_WORDS} (z* = {z_txt})"
     return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt})"
+
+
+def card_record(card_text: str) -> dict[str, Any]:
+    """What a model card written by ``model_card`` says of its policy's training, as
+    ``train_meta.json`` keys: env steps, iterations, envs, wall-clock (to the card's 0.01 h),
+    and the reward when it is Table I. Lets a shipped teacher whose run is gone be quoted on its
+    student's card (``scripts/actor_to_run.py``); keys the card does not state are left out."""
+    out: dict[str, Any] = {}
+    if m := re.search(r"\*\*Environment steps\*\*: ([\d,]+) \((\d+) iterations, (\d+) envs\)", card_text):
+        out.update(env_steps=int(m.group(1).replace(",", "")), iterations_done=int(m.group(2)), num_envs=int(m.group(3)))
+    if m := re.search(r"\*\*Wall-clock\*\*: ([\d.]+) h", card_text):
+        out["wall_clock_s"] = float(m.group(1)) * 3600
+    if m := re.search(r"\*\*Reward\*\*: " + re.escape(TABLE_I_WORDS) + r" \(z\* = ([^)]*)\)", card_text):
+        z = None if m.group(1) == STANDING_HEIGHT_WORDS else float(m.group(1).removesuffix(" m"))
+        out["train_config"] = {"reward": {**asdict(RewardConfig()), "target_height_m": z}}
+    return out
 
 
 def _cli(command_line: str) -> str:
