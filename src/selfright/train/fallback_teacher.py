@@ -8,6 +8,11 @@ large exploration noise from those postures gets the robot out of them (docs/tra
 *What the flat failures are*). Distilling one student from the pair puts both into a single
 sensor-only network: the labels are the fallback's actions in the states where it acts. With
 the tilt rule the label is a function of the current state, which a one-frame student sees.
+
+The two teachers may have been trained around different fixed action references (``stand`` /
+``tall``): the fallback's actions are then shifted into the primary's (the student's) units and
+the previous action it observes is shifted back, as ``selfright.policies.reference`` does at
+evaluation time.
 """
 
 from __future__ import annotations
@@ -15,25 +20,52 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from selfright.env.observations import prev_action_columns
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
 class FallbackTeacher(nn.Module):
     """``primary``'s action, or ``fallback``'s where ``switch`` hands over. Keeps the switch's
-    per-env state; rsl_rl's ``Distillation`` calls ``reset(dones)`` every step."""
+    per-env state; rsl_rl's ``Distillation`` calls ``reset(dones)`` every step.
 
-    def __init__(self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: StallSwitch | TiltSwitch):
+    Args:
+        fallback_offset: (J,) (fallback's reference pose − primary's) / action scale, in action
+            units, when the two differ; None when they are the same.
+    """
+
+    def __init__(
+        self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: StallSwitch | TiltSwitch,
+        fallback_offset: torch.Tensor | None = None,
+    ):
         super().__init__()
         self.primary, self.fallback, self.switch = primary, fallback, switch
         self.slots = torch.arange(num_envs)
+        self.offset = None if fallback_offset is None else torch.as_tensor(fallback_offset, dtype=torch.float32)
+        self.fresh = torch.ones(num_envs, dtype=torch.bool)
+        """Envs whose episode has not taken a step yet (their previous action reads 0 in any units)."""
 
     def forward(self, obs) -> torch.Tensor:
-        use = self.switch.step(obs["teacher"], self.slots).to(obs["teacher"].device)
-        return torch.where(use[:, None], self.fallback(obs), self.primary(obs))
+        x = obs["teacher"]
+        use = self.switch.step(x, self.slots).to(x.device)
+        return torch.where(use[:, None], self._fallback_action(obs), self.primary(obs))
+
+    def _fallback_action(self, obs) -> torch.Tensor:
+        if self.offset is None:
+            return self.fallback(obs)
+        x = obs["teacher"]
+        offset = self.offset.to(x.device, x.dtype)
+        took = (~self.fresh).to(x.device, x.dtype)[:, None]
+        self.fresh[:] = False
+        moved = x.clone()
+        moved[:, prev_action_columns(len(offset))] -= offset * took  # the action it took, in its own units
+        shifted = obs.clone()
+        shifted["teacher"] = moved
+        return self.fallback(shifted) + offset
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:
             self.switch.reset(dones.bool().cpu())
+            self.fresh |= dones.bool().cpu()
 
     def get_hidden_state(self):
         return None

@@ -279,9 +279,27 @@ class TrainingRun:
         robot = self.env.env.robot
         switch = hand_over_rule(d.fallback_tilt_deg, d.stall_s, d.fallback_s, s.bench.sim.control_dt_s,
                                 goal_height_m(s.bench.goal, robot.leg_length_m), robot.num_joints)
-        composite = FallbackTeacher(primary, second, s.num_envs, switch).to(s.device).eval()
+        offset = self._fallback_offset(ckpt, robot)
+        composite = FallbackTeacher(primary, second, s.num_envs, switch, offset).to(s.device).eval()
         alg.teacher = alg._raw_teacher = composite
         alg.teacher_loaded = True
+
+    def _fallback_offset(self, ckpt: Path, robot) -> torch.Tensor | None:
+        """(fallback's reference pose − the student's) / scale when the fallback teacher was
+        trained around another fixed pose than ``--action-reference`` (its labels are shifted
+        into the student's units); None when they are the same. Refuses what cannot be converted."""
+        action = self.spec.bench.action
+        pol = read_meta(ckpt.parent).get("policy") or {}
+        ref, scale = pol.get("action_reference", "stand"), float(pol.get("action_scale_rad", action.scale_rad))
+        if ref == action.reference and scale == action.scale_rad:
+            return None
+        if "current" in (ref, action.reference) or scale != action.scale_rad:
+            raise ValueError(
+                f"--train.distillation.fallback-teacher {ckpt.parent} maps actions around {ref!r} at {scale} rad; "
+                f"only fixed poses (stand / tall) at the student's scale ({action.scale_rad} rad) convert"
+            )
+        pose = robot.reference_pose(ref) - robot.reference_pose(action.reference)
+        return torch.as_tensor(pose / action.scale_rad, dtype=torch.float32)
 
     @staticmethod
     def _saved_iteration(ckpt: Path) -> int:
