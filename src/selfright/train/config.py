@@ -191,7 +191,9 @@ class DistillationConfig:
     """A second teacher checkpoint that labels some states instead of the first
     (``selfright.train.fallback_teacher``): those where the robot has stalled under the first
     (still for ``stall_s`` while tilted more than 30° or under the goal bar, then for
-    ``fallback_s``), or, with ``fallback_tilt_deg``, every state tilted over. None = one teacher."""
+    ``fallback_s``), or, with ``fallback_tilt_deg``, every state tilted over. It needs the first
+    teacher's network; if it was trained around the other fixed action reference (``stand`` /
+    ``tall``), its labels are converted to the student's. None = one teacher."""
     fallback_tilt_deg: float = 0.0
     """With ``fallback_teacher``: it labels every state whose trunk is tilted more than this
     from upright (deg), the first teacher the rest; a rule of the current state alone
