@@ -95,10 +95,13 @@ case $stage in
     wait
     ;;
   students)
-    # The rough student, likewise from the tilt composite of the rough teacher and the rough escape
-    # specialist; 256 envs, its last checkpoint (799) ships (chosen on seeds 4-11: docs/training.md).
-    ENVS=256 run runs/rough_student --role student --context rough --teacher runs/rough_teacher --physics-threads 1 \
-      --iterations 800 --train.distillation.fallback-teacher runs/rough_escape/model_1086.pt \
+    # The rough student, likewise from a tilt composite: the tall flat teacher (it stands taller than
+    # the rough teacher, which level 4 needs) where the trunk is upright within 45 deg, the rough escape
+    # specialist (a `stand` policy: its labels are converted) where it is tilted more; 512 envs,
+    # iteration 442 ships (chosen on seeds 4-11: docs/training.md).
+    ENVS=512 run runs/rough_student --role student --context rough --teacher runs/flat_teacher_tall/model_1271.pt \
+      --action-reference tall --physics-threads 1 --iterations 443 \
+      --train.distillation.fallback-teacher runs/rough_escape/model_1086.pt \
       --train.distillation.fallback-tilt-deg 45 $(has_ckpt runs/rough_student && echo --resume) &
     # The flat student learns from a composite: the flat teacher where the trunk is upright within
     # 45 deg, the escape specialist where it is tilted more; 512 envs, iteration 360 ships (chosen on
