@@ -14,8 +14,33 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from selfright.config import ActionConfig
 from selfright.env.observations import prev_action_columns
 from selfright.policies.base import Policy
+from selfright.robots import RobotSpec
+
+
+def reference_offset(robot: RobotSpec, trained: tuple[str, float | None], action: ActionConfig) -> np.ndarray | None:
+    """(J,) offset, in action units, that converts a policy trained with the action mapping
+    ``trained`` (reference, scale; a falsy scale = unknown, taken as ``action``'s) to an env
+    mapping actions by ``action``: (pose A − pose B) / scale. None when the two mappings are the
+    same; ``ValueError`` when no fixed offset converts (``current``, or another scale)."""
+    ref, scale = trained
+    same_scale = not scale or abs(scale - action.scale_rad) <= 1e-9
+    if ref == action.reference and same_scale:
+        return None
+    if not same_scale or "current" in (ref, action.reference):
+        raise ValueError(f"actions around {ref!r} at {scale} rad do not convert to {action.reference!r} at {action.scale_rad} rad")
+    return (robot.reference_pose(ref) - robot.reference_pose(action.reference)) / action.scale_rad
+
+
+def in_own_units(x: torch.Tensor, offset: torch.Tensor, took: torch.Tensor) -> torch.Tensor:
+    """Observations ``x`` (k, D) with the previous action shifted back into the units of the
+    policy that ``offset`` converts, in the rows where ``took`` (k,) says an action was taken
+    (on an episode's first step the env reports 0 in any units). Returns a copy."""
+    x = x.clone()
+    x[:, prev_action_columns(len(offset))] -= offset.to(x.device, x.dtype) * took.to(x.device, x.dtype)[:, None]
+    return x
 
 
 class ShiftedReference(Policy):
@@ -32,7 +57,6 @@ class ShiftedReference(Policy):
         self.groups = inner.groups
         self.action_mapping = env_mapping
         self.offset = torch.as_tensor(offset, dtype=torch.float32)
-        self.prev_cols = prev_action_columns(len(offset))
         self.fresh: set[int] = set()
         """Slots whose episode has not taken a step yet."""
 
@@ -52,11 +76,6 @@ class ShiftedReference(Policy):
         ids = np.asarray(ids).tolist()
         took = torch.tensor([i not in self.fresh for i in ids])
         self.fresh.difference_update(ids)
-        shifted = {}
-        for group, x in obs.items():
-            x = x.clone()
-            shift = self.offset.to(x.device, x.dtype) * took.to(x.device, x.dtype)[:, None]
-            x[:, self.prev_cols] -= shift  # the action it took, in its own units
-            shifted[group] = x
+        shifted = {group: in_own_units(x, self.offset, took) for group, x in obs.items()}
         a = self.inner.act(shifted, ids, contexts)
         return a + self.offset.to(a.device, a.dtype)

@@ -7,7 +7,7 @@ from pathlib import Path
 from selfright.config import ActionConfig, BenchmarkConfig
 from selfright.policies.base import Policy
 from selfright.policies.baselines import OpenLoopPolicy, RandomPolicy, ZeroPolicy
-from selfright.policies.reference import ShiftedReference
+from selfright.policies.reference import ShiftedReference, reference_offset
 from selfright.robots import get_robot
 
 BASELINES = ("zero", "random", "open-loop")
@@ -40,18 +40,16 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_
     if mapping is None:
         return policy
     ref, scale = mapping
-    same_scale = not scale or abs(scale - action.scale_rad) <= 1e-9
-    if ref == action.reference and same_scale:
-        return policy
-    if same_scale and "current" not in (ref, action.reference):
-        robot = get_robot(robot_name)
-        offset = (robot.reference_pose(ref) - robot.reference_pose(action.reference)) / action.scale_rad
-        return ShiftedReference(policy, offset, (action.reference, action.scale_rad))
-    raise ValueError(
-        f"policy {name!r} was trained with joint targets = {ref} + {scale} rad × action, but this run maps "
-        f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with "
-        f"--action-reference {ref} (API: BenchmarkConfig(action=ActionConfig(reference={ref!r})))"
-    )
+    robot = get_robot(robot_name)
+    try:
+        offset = reference_offset(robot, mapping, action)
+    except ValueError:
+        raise ValueError(
+            f"policy {name!r} was trained with joint targets = {ref} + {scale} rad × action, but this run maps "
+            f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with "
+            f"--action-reference {ref} (API: BenchmarkConfig(action=ActionConfig(reference={ref!r})))"
+        ) from None
+    return policy if offset is None else ShiftedReference(policy, offset, (action.reference, action.scale_rad))
 
 
 def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from selfright.env.observations import prev_action_columns
+from selfright.policies.reference import in_own_units
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
@@ -52,15 +52,10 @@ class FallbackTeacher(nn.Module):
     def _fallback_action(self, obs) -> torch.Tensor:
         if self.offset is None:
             return self.fallback(obs)
-        x = obs["teacher"]
-        offset = self.offset.to(x.device, x.dtype)
-        took = (~self.fresh).to(x.device, x.dtype)[:, None]
-        self.fresh[:] = False
-        moved = x.clone()
-        moved[:, prev_action_columns(len(offset))] -= offset * took  # the action it took, in its own units
         shifted = obs.clone()
-        shifted["teacher"] = moved
-        return self.fallback(shifted) + offset
+        shifted["teacher"] = in_own_units(obs["teacher"], self.offset, ~self.fresh)
+        self.fresh[:] = False
+        return self.fallback(shifted) + self.offset.to(shifted["teacher"].device)
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:

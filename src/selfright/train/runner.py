@@ -33,6 +33,7 @@ from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m
+from selfright.policies.reference import reference_offset
 from selfright.policies.stall import hand_over_rule
 from selfright.train.checkpoints import (
     CHECKPOINT_RE,
@@ -288,18 +289,14 @@ class TrainingRun:
         """(fallback's reference pose − the student's) / scale when the fallback teacher was
         trained around another fixed pose than ``--action-reference`` (its labels are shifted
         into the student's units); None when they are the same. Refuses what cannot be converted."""
-        action = self.spec.bench.action
         pol = read_meta(ckpt.parent).get("policy") or {}
-        ref, scale = pol.get("action_reference", "stand"), float(pol.get("action_scale_rad", action.scale_rad))
-        if ref == action.reference and scale == action.scale_rad:
-            return None
-        if "current" in (ref, action.reference) or scale != action.scale_rad:
-            raise ValueError(
-                f"--train.distillation.fallback-teacher {ckpt.parent} maps actions around {ref!r} at {scale} rad; "
-                f"only fixed poses (stand / tall) at the student's scale ({action.scale_rad} rad) convert"
-            )
-        pose = robot.reference_pose(ref) - robot.reference_pose(action.reference)
-        return torch.as_tensor(pose / action.scale_rad, dtype=torch.float32)
+        trained = (pol.get("action_reference", "stand"), pol.get("action_scale_rad"))
+        try:
+            offset = reference_offset(robot, trained, self.spec.bench.action)
+        except ValueError as e:
+            raise ValueError(f"--train.distillation.fallback-teacher {ckpt.parent}: {e}; only fixed poses (stand / tall) "
+                             "at the student's scale convert") from None
+        return None if offset is None else torch.as_tensor(offset, dtype=torch.float32)
 
     @staticmethod
     def _saved_iteration(ckpt: Path) -> int:
