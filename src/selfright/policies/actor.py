@@ -204,14 +204,17 @@ def _padded_rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) ->
 
 # --------------------------------------------------------------- checkpoints
 def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = None) -> ActorMLP:
-    """The deployable actor of an rsl_rl checkpoint (the student if distilled, else the PPO actor).
+    """The deployable actor of an rsl_rl checkpoint (the student if distilled, its weight
+    average when the run kept one (``--train.distillation.ema-decay``), else the PPO actor).
 
     Architecture is read off the weights; ``hint`` (e.g. the run's ``train_meta.json``
     ``policy`` entry, or the checkpoint's ``infos``) supplies the activation, role and context.
     Raises ``ValueError`` if the dict holds no actor.
     """
     hint = dict(hint or {})
-    if "student_state_dict" in ckpt:
+    if "student_ema_state_dict" in ckpt:  # the weight average of selfright.train.ema
+        sd, role = ckpt["student_ema_state_dict"], "student"
+    elif "student_state_dict" in ckpt:
         sd, role = ckpt["student_state_dict"], "student"
     elif "actor_state_dict" in ckpt:
         sd, role = ckpt["actor_state_dict"], "teacher"

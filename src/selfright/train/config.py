@@ -204,6 +204,10 @@ class DistillationConfig:
     """How long the robot must have been still before the fallback teacher labels (s)."""
     student_init_std: float = 0.1
     """Action noise of the student while it collects its own rollouts (action units)."""
+    ema_decay: float = 0.0
+    """Per-iteration decay of an exponential moving average of the student's weights
+    (``selfright.train.ema``), saved in every checkpoint and deployed instead of the raw
+    weights; it spans about 1 / (1 − decay) iterations. 0 = off (the raw weights deploy)."""
 
 
 @dataclass(frozen=True, kw_only=True)

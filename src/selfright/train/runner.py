@@ -45,6 +45,7 @@ from selfright.train.checkpoints import (
 )
 from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
+from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.vecenv import RecoveryVecEnv
 
@@ -230,6 +231,8 @@ class TrainingRun:
             is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
             device=r.device, hook=self._on_iteration,
         )
+        if s.role == "student" and s.train.distillation.ema_decay > 0:
+            attach_weight_average(r.alg, s.train.distillation.ema_decay)
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
         if fallback is not None:
             self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
