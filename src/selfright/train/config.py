@@ -71,6 +71,13 @@ class EpisodeConfig:
     restart_tilted_only: bool = False
     """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
     limit (lying on the back or side), not upright ones such as a crouch under the bar."""
+    upright_policy: str | None = None
+    """A frozen teacher checkpoint that acts in every training step where the trunk is within
+    ``upright_tilt_deg`` of upright, replacing the trained policy's action there: an escape
+    specialist then trains inside the composite it will serve in
+    (``selfright.train.upright_override``). None = the trained policy acts throughout."""
+    upright_tilt_deg: float = 45.0
+    """With ``upright_policy``: the hand-over tilt (deg) above which the trained policy acts."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the

@@ -47,6 +47,7 @@ from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
+from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
 
 PROGRESS_EVERY_S = 10.0
@@ -221,6 +222,13 @@ class TrainingRun:
             bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
             device=s.device,
         )
+        if s.train.episode.upright_policy is not None:
+            if s.role != "teacher":
+                raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
+            self.env.action_override = load_upright_override(
+                Path(s.train.episode.upright_policy), s.train.episode.upright_tilt_deg, s.num_envs,
+                self.env.env.robot, s.bench.action,
+            )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
         runner_cls = OnPolicyRunner if s.role == "teacher" else DistillationRunner
         with contextlib.redirect_stdout(io.StringIO()):  # rsl_rl prints the model layouts

@@ -27,6 +27,7 @@ from __future__ import annotations
 import copy
 import math
 from collections import deque
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -118,6 +119,10 @@ class RecoveryVecEnv(VecEnv):
         self.prepare_starts = ep.prepare_starts
         self.next_start = PreparedStarts(num_envs, self.env.sl.size, self.env.sens.shape[1])
         """Each slot's settled next episode start, drawn ahead in batches (``prepare_starts``)."""
+        self.action_override: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+        """Replaces the policy's actions before they are applied, given the teacher
+        observation (``selfright.train.upright_override``); its ``reset(ids)`` is called for
+        slots that start a new episode."""
         self.reset_all()
 
     # ------------------------------------------------------------------ resets
@@ -280,6 +285,8 @@ class RecoveryVecEnv(VecEnv):
         """
         env = self.env
         prev_action = env.prev_action.clone()
+        if self.action_override is not None:
+            actions = self.action_override(self._obs["teacher"], actions)
         out = env.step(actions.detach().cpu())
         ctx = RewardContext(
             action=env.prev_action,  # the clipped action just applied
@@ -335,6 +342,10 @@ class RecoveryVecEnv(VecEnv):
             if self.replay_share > 0 or self.restart_share > 0:
                 log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
+            if self.action_override is not None:
+                self.action_override.reset(done_ids)
+        if self.action_override is not None:
+            log["Metrics/overridden"] = self.action_override.share
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras

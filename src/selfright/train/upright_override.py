@@ -1,0 +1,92 @@
+"""Training an escape specialist inside its composite: a frozen policy acts wherever the
+trunk is upright within a tilt, and only the remaining (tilted) steps are the trained
+policy's.
+
+The composites that ship as students (docs/training.md, *A composite that hands over by tilt*)
+pair a stand-up teacher, acting while the trunk is within 45° of upright, with an escape
+specialist that acts when it is tilted more. The specialists were trained alone, from tilted
+starts, for whole episodes: most of their Table I return, and so most of their learning, came
+from the upright phase they never act in once deployed. With this override the training
+episodes run the composite itself (``EpisodeConfig.upright_policy``): the frozen stand-up
+policy's action replaces the trained policy's in every upright state, so the specialist's
+return is the composite's, and what it learns is to hand the robot over in states from which
+the stand-up policy succeeds.
+
+PPO still stores the trained policy's own sampled action in the overridden steps; there it has
+no effect on what follows, so its advantage carries no signal about it and adds only noise,
+while the critic learns the composite's values. Reward, observations (the previous action is
+the one applied) and the benchmark are unchanged.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+
+from selfright.config import ActionConfig
+from selfright.policies.actor import ActorMLP, actor_from_checkpoint
+from selfright.policies.reference import in_own_units, reference_offset
+from selfright.policies.stall import TiltSwitch
+from selfright.robots import RobotSpec
+from selfright.train.checkpoints import latest_checkpoint, read_meta
+
+
+class UprightOverride:
+    """Replaces actions by ``actor``'s wherever the trunk is within ``tilt_deg`` of upright.
+
+    Args:
+        actor: the frozen stand-up policy; reads the ``teacher`` observation (k, D).
+        tilt_deg: the hand-over tilt (deg): the trained policy acts only above it.
+        num_envs: env slots.
+        offset: (J,) (actor's reference pose − the env's) / action scale when the actor was
+            trained around another fixed pose than the env's ``--action-reference``; None if
+            the same.
+    """
+
+    def __init__(self, actor: ActorMLP, tilt_deg: float, num_envs: int, offset: torch.Tensor | None = None):
+        if actor.meta.obs_group != "teacher" or actor.recurrent or actor.meta.obs_history > 1:
+            raise ValueError("the upright policy must be a feed-forward teacher (it reads the teacher observation)")
+        self.actor = actor.eval()
+        self.switch = TiltSwitch(tilt_deg)
+        self.offset = offset
+        self.fresh = torch.ones(num_envs, dtype=torch.bool)
+        """Slots whose episode has not taken a step yet (their previous action reads 0 in any units)."""
+        self.share = torch.tensor(0.0)
+        """Fraction of the slots overridden at the latest step (a 0-d tensor, for the log)."""
+
+    @torch.no_grad()
+    def __call__(self, teacher_obs: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """``actions`` (n, J) with the upright slots' replaced by the frozen policy's (a copy)."""
+        x = teacher_obs.detach().cpu().float()
+        upright = ~self.switch.step(x, None)
+        out = actions.detach().cpu().clone()
+        if upright.any():
+            xu = x[upright]
+            if self.offset is not None:
+                xu = in_own_units(xu, self.offset, ~self.fresh[upright])
+            a = self.actor(xu)
+            out[upright] = a if self.offset is None else a + self.offset
+        self.fresh[:] = False
+        self.share = upright.float().mean()
+        return out
+
+    def reset(self, ids: torch.Tensor) -> None:
+        """Slots ``ids`` start new episodes."""
+        self.fresh[ids] = True
+
+
+def load_upright_override(
+    path: Path, tilt_deg: float, num_envs: int, robot: RobotSpec, action: ActionConfig
+) -> UprightOverride:
+    """``UprightOverride`` of the teacher checkpoint (or run folder) ``path``; its action mapping
+    is read from its run's ``train_meta.json`` and converted to ``action`` if it differs."""
+    ckpt = latest_checkpoint(path)
+    hint = read_meta(ckpt.parent).get("policy") or {}
+    actor = actor_from_checkpoint(torch.load(ckpt, map_location="cpu", weights_only=False), hint)
+    trained = (hint.get("action_reference", "stand"), hint.get("action_scale_rad"))
+    try:
+        offset = reference_offset(robot, trained, action)
+    except ValueError as e:
+        raise ValueError(f"--train.episode.upright-policy {path}: {e}; only fixed poses (stand / tall) convert") from None
+    return UprightOverride(actor, tilt_deg, num_envs, None if offset is None else torch.as_tensor(offset, dtype=torch.float32))
