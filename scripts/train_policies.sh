@@ -109,13 +109,14 @@ case $stage in
     ENVS=512 run runs/flat_student --role student --context flat --teacher runs/flat_teacher --physics-threads 1 \
       --iterations 361 --train.distillation.fallback-teacher runs/flat_escape/model_966.pt \
       --train.distillation.fallback-tilt-deg 45 $(has_ckpt runs/flat_student && echo --resume) &
-    # The incline student: 4x the batch, a 25-frame (0.5 s) history, and the tilt composite of the
-    # incline teacher and its escape specialist; its iteration 72 ships (chosen on seeds 4-11,
-    # measured on seeds 0-3 and 12-19: docs/training.md), so the run stops there and `ship` takes
-    # its last checkpoint.
+    # The incline student: 4x the batch, a 25-frame (0.5 s) history, the tilt composite of the
+    # incline teacher and its escape specialist, a wider network than its teachers' (512-256-128)
+    # and a moving average of its weights; its last checkpoint (iteration 299) ships, none chosen
+    # (docs/training.md, *A wider incline student*).
     ENVS=512 run runs/incline_student --role student --context incline --teacher runs/incline_teacher \
-      --physics-threads 1 --iterations 73 --action-reference tall --train.distillation.student-history 25 \
+      --physics-threads 1 --iterations 300 --action-reference tall --train.distillation.student-history 25 \
       --train.distillation.fallback-teacher runs/incline_escape/model_646.pt --train.distillation.fallback-tilt-deg 45 \
+      --train.distillation.ema-decay 0.97 --train.policy.hidden-dims 512 256 128 \
       $(has_ckpt runs/incline_student && echo --resume) &
     wait
     ;;
