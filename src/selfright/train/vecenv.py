@@ -27,7 +27,7 @@ from __future__ import annotations
 import copy
 import math
 from collections import deque
-from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -44,6 +44,9 @@ from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
 from selfright.train.config import TrainConfig, student_group
 from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
+
+if TYPE_CHECKING:
+    from selfright.train.upright_override import UprightOverride
 
 
 class RecoveryVecEnv(VecEnv):
@@ -119,10 +122,10 @@ class RecoveryVecEnv(VecEnv):
         self.prepare_starts = ep.prepare_starts
         self.next_start = PreparedStarts(num_envs, self.env.sl.size, self.env.sens.shape[1])
         """Each slot's settled next episode start, drawn ahead in batches (``prepare_starts``)."""
-        self.action_override: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+        self.action_override: UprightOverride | None = None
         """Replaces the policy's actions before they are applied, given the teacher
-        observation (``selfright.train.upright_override``); its ``reset(ids)`` is called for
-        slots that start a new episode."""
+        observation (``EpisodeConfig.upright_policy``); told of every slot that starts a new
+        episode."""
         self.reset_all()
 
     # ------------------------------------------------------------------ resets
