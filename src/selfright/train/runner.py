@@ -181,6 +181,8 @@ class TrainingRun:
         has_ckpt = bool(list_checkpoints(self.out))
         if s.resume and not has_ckpt:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
+        if s.train.episode.upright_policy is not None and s.role != "teacher":
+            raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
         if s.init_from is not None:
             if s.role != "teacher":
                 raise ValueError("--init-from is for teachers; a student starts from --teacher")
@@ -223,8 +225,6 @@ class TrainingRun:
             device=s.device,
         )
         if s.train.episode.upright_policy is not None:
-            if s.role != "teacher":
-                raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
             self.env.action_override = load_upright_override(
                 Path(s.train.episode.upright_policy), s.train.episode.upright_tilt_deg, s.num_envs,
                 self.env.env.robot, s.bench.action,

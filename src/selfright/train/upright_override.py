@@ -25,11 +25,11 @@ from pathlib import Path
 import torch
 
 from selfright.config import ActionConfig
-from selfright.policies.actor import ActorMLP, actor_from_checkpoint
+from selfright.policies.actor import ActorMLP
 from selfright.policies.reference import in_own_units, reference_offset
 from selfright.policies.stall import TiltSwitch
 from selfright.robots import RobotSpec
-from selfright.train.checkpoints import latest_checkpoint, read_meta
+from selfright.train.commands import load_checkpoint_actor
 
 
 class UprightOverride:
@@ -79,12 +79,11 @@ class UprightOverride:
 def load_upright_override(
     path: Path, tilt_deg: float, num_envs: int, robot: RobotSpec, action: ActionConfig
 ) -> UprightOverride:
-    """``UprightOverride`` of the teacher checkpoint (or run folder) ``path``; its action mapping
-    is read from its run's ``train_meta.json`` and converted to ``action`` if it differs."""
-    ckpt = latest_checkpoint(path)
-    hint = read_meta(ckpt.parent).get("policy") or {}
-    actor = actor_from_checkpoint(torch.load(ckpt, map_location="cpu", weights_only=False), hint)
-    trained = (hint.get("action_reference", "stand"), hint.get("action_scale_rad"))
+    """``UprightOverride`` of the teacher checkpoint (or run folder) ``path``, loaded as
+    ``selfright export`` loads one; its recorded action mapping is converted to ``action`` if it
+    differs. User errors raise ``ValueError``."""
+    actor, _ = load_checkpoint_actor(path)
+    trained = (actor.meta.action_reference or "stand", actor.meta.action_scale_rad or None)
     try:
         offset = reference_offset(robot, trained, action)
     except ValueError as e:
