@@ -78,6 +78,10 @@ class EpisodeConfig:
     (``selfright.train.upright_override``). None = the trained policy acts throughout."""
     upright_tilt_deg: float = 45.0
     """With ``upright_policy``: the hand-over tilt (deg) above which the trained policy acts."""
+    upright_masked: bool = False
+    """With ``upright_policy``: leave the overridden steps out of PPO's policy gradient
+    (advantages normalised over the steps the trained policy acted in, zero elsewhere, scaled by
+    1 / their share; ``selfright.train.override_mask``). The critic still learns from every step."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the

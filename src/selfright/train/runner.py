@@ -47,6 +47,7 @@ from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
+from selfright.train.override_mask import attach_override_mask
 from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
 
@@ -183,6 +184,8 @@ class TrainingRun:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
         if s.train.episode.upright_policy is not None and s.role != "teacher":
             raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
+        if s.train.episode.upright_masked and s.train.episode.upright_policy is None:
+            raise ValueError("--train.episode.upright-masked needs --train.episode.upright-policy (the steps it masks)")
         if s.init_from is not None:
             if s.role != "teacher":
                 raise ValueError("--init-from is for teachers; a student starts from --teacher")
@@ -239,6 +242,8 @@ class TrainingRun:
             is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
             device=r.device, hook=self._on_iteration,
         )
+        if self.env.action_override is not None and s.train.episode.upright_masked:
+            attach_override_mask(r.alg, self.env.action_override)
         if s.role == "student" and s.train.distillation.ema_decay > 0:
             attach_weight_average(r.alg, s.train.distillation.ema_decay)
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None

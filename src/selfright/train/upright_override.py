@@ -14,7 +14,8 @@ the stand-up policy succeeds.
 
 PPO still stores the trained policy's own sampled action in the overridden steps; there it has
 no effect on what follows, so its advantage carries no signal about it and adds only noise,
-while the critic learns the composite's values. Reward, observations (the previous action is
+while the critic learns the composite's values (``EpisodeConfig.upright_masked`` drops those
+steps from the policy gradient: ``selfright.train.override_mask``). Reward, observations (the previous action is
 the one applied) and the benchmark are unchanged.
 """
 
@@ -52,6 +53,8 @@ class UprightOverride:
         self.offset = offset
         self.fresh = torch.ones(num_envs, dtype=torch.bool)
         """Slots whose episode has not taken a step yet (their previous action reads 0 in any units)."""
+        self.overridden = torch.zeros(num_envs, dtype=torch.bool)
+        """Slots overridden at the latest step (what ``selfright.train.override_mask`` records)."""
         self.share = torch.tensor(0.0)
         """Fraction of the slots overridden at the latest step (a 0-d tensor, for the log)."""
 
@@ -68,6 +71,7 @@ class UprightOverride:
             a = self.actor(xu)
             out[upright] = a if self.offset is None else a + self.offset
         self.fresh[:] = False
+        self.overridden = upright
         self.share = upright.float().mean()
         return out
 
