@@ -55,6 +55,9 @@ class Args:
     tilt_deg: float = 0.0
     """With two policies: the second acts whenever the robot is tilted more than this from
     upright, the first otherwise (``selfright.policies.stall.TiltSwitch``); 0 = off."""
+    feed_both: bool = False
+    """With two policies: the second sees every step, not only those it acts in (needed when
+    it reads a history of observations: a student)."""
     stall_below_bar: bool = False
     """Also hand over when the robot stands or sits still upright with its trunk under the
     goal bar (read from the privileged teacher observation)."""
@@ -74,7 +77,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         raise ValueError("--fallback-s and --tilt-deg take two policies")
     if a.fallback_s > 0 or a.tilt_deg > 0:
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
-        return Fallback(*members, hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar))
+        return Fallback(*members, hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar),
+                        feed_both=a.feed_both)
     return members[0] if len(members) == 1 else MeanOf(members)
 
 

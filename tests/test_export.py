@@ -237,6 +237,34 @@ def test_tilt_fallback_acts_exactly_while_tilted_over():
         assert fb.act({"student": obs}, ids, [None] * 4)[:, 0].tolist() == [1.0, 1.0, 2.0, 2.0]
 
 
+class _Count(Policy):
+    """Counts the steps each slot was shown; acts with that count."""
+
+    def __init__(self):
+        self.seen = np.zeros(8)
+
+    def act(self, obs, ids, contexts):
+        self.seen[ids] += 1
+        return torch.as_tensor(self.seen[ids], dtype=torch.float32).unsqueeze(1).repeat(1, 12)
+
+
+def test_tilt_fallback_feeding_both_shows_the_second_every_step():
+    from selfright.policies.stall import TiltSwitch
+    from selfright.policies.variants import Fallback
+
+    ids = np.arange(2)
+    obs = torch.zeros(2, 42)
+    obs[:, 2] = torch.tensor([-1.0, 1.0])  # slot 0 upright, slot 1 on its back
+    for feed_both, second_seen in ((False, [0, 3]), (True, [3, 3])):
+        second = _Count()
+        fb = Fallback(_Const(1.0), second, TiltSwitch(45.0), feed_both=feed_both)
+        fb.reset(ids)
+        for _ in range(3):
+            a = fb.act({"student": obs}, ids, [None, None])
+        assert a[:, 0].tolist() == [1.0, 3.0]  # the same actions either way
+        assert second.seen[:2].tolist() == second_seen
+
+
 def test_teacher_height_column_is_the_trunk_height():
     from selfright.config import BenchmarkConfig
     from selfright.env.observations import teacher_height_column

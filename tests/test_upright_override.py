@@ -48,6 +48,15 @@ def test_upright_slots_get_the_frozen_action_tilted_keep_theirs():
     assert ov.share.item() == pytest.approx(1 / 3)
 
 
+def test_tilted_side_overrides_exactly_the_tilted_slots():
+    ov = UprightOverride(_constant_actor(0.7), tilt_deg=45.0, num_envs=3, acts_when="tilted")
+    acts = torch.full((3, J), -2.0)
+    out = ov(_obs([-1.0, -0.5, 1.0]), acts)
+    assert torch.equal(out[0], acts[0])
+    assert torch.equal(out[1:], torch.full((2, J), 0.7))
+    assert ov.overridden.tolist() == [False, True, True]
+
+
 def test_other_reference_is_converted_both_ways():
     offset = torch.linspace(-1.0, 1.0, J)
     ov = UprightOverride(_constant_actor(0.0), tilt_deg=45.0, num_envs=1, offset=offset)
@@ -85,3 +94,16 @@ def test_teacher_trains_inside_a_composite(tmp_path: Path):
         from selfright.train.runner import TrainingRun
 
         TrainingRun(r2).setup()
+
+
+def test_student_distils_on_the_states_a_frozen_escape_hands_over(tmp_path: Path):
+    frozen = tmp_path / "frozen"
+    run(spec(frozen))
+    ep = dataclasses.replace(TINY.episode, tilted_policy=str(frozen), upright_tilt_deg=45.0)
+    r = run(spec(tmp_path / "student", role="student", teacher=frozen, train=dataclasses.replace(TINY, episode=ep)))
+    assert r.env.action_override is not None and r.env.action_override.acts_when == "tilted" and r.last_loss
+    from selfright.train.runner import TrainingRun
+
+    both = dataclasses.replace(ep, upright_policy=str(frozen))
+    with pytest.raises(ValueError, match="not both"):
+        TrainingRun(spec(tmp_path / "s2", train=dataclasses.replace(TINY, episode=both))).setup()

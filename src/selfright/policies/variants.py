@@ -73,10 +73,14 @@ class Fallback(Policy):
     """``first`` acts, and ``second`` where ``switch`` (a rule of ``selfright.policies.stall``)
     hands over: e.g. ``StallSwitch`` (for a while after the robot stalls; with a bar, an
     upright robot whose trunk is lower counts as stalled too, read from the teacher
-    observation, which is then computed) or ``TiltSwitch`` (while it is tilted over)."""
+    observation, which is then computed) or ``TiltSwitch`` (while it is tilted over).
 
-    def __init__(self, first: Policy, second: Policy, switch: StallSwitch | TiltSwitch):
-        self.first, self.second, self.switch = first, second, switch
+    ``feed_both``: ``second`` sees every step of every slot, not only the handed-over ones, so
+    a policy with a history of observations (a student) has an unbroken one when it takes
+    over; its actions outside the hand-over are discarded."""
+
+    def __init__(self, first: Policy, second: Policy, switch: StallSwitch | TiltSwitch, feed_both: bool = False):
+        self.first, self.second, self.switch, self.feed_both = first, second, switch, feed_both
         extra = {"teacher"} if switch.needs_teacher else set()
         self.groups = tuple(sorted(set(first.groups) | set(second.groups) | extra))
         self.action_mapping = first.action_mapping
@@ -92,6 +96,8 @@ class Fallback(Policy):
         x = obs["teacher"] if "teacher" in obs else obs["student"]
         rows = self.switch.step(x, torch.as_tensor(np.asarray(ids), dtype=torch.long))
         out = self.first.act(obs, ids, contexts)
+        if self.feed_both:
+            return torch.where(rows.unsqueeze(1).to(out.device), self.second.act(obs, ids, contexts), out)
         if rows.any():  # only the handed-over rows reach ``second`` (it may keep per-slot state)
             hand = rows.numpy()
             sub = {g: v[rows] for g, v in obs.items()}

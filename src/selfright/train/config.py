@@ -76,10 +76,15 @@ class EpisodeConfig:
     ``upright_tilt_deg`` of upright, replacing the trained policy's action there: an escape
     specialist then trains inside the composite it will serve in
     (``selfright.train.upright_override``). None = the trained policy acts throughout."""
+    tilted_policy: str | None = None
+    """The other way round: a frozen (escape) teacher checkpoint that acts in every training
+    step where the trunk is tilted more than ``upright_tilt_deg``, so the trained policy (a
+    teacher, or a student of the stand-up teacher) acts only on the states that escape hands
+    over. Not with ``upright_policy``."""
     upright_tilt_deg: float = 45.0
-    """With ``upright_policy``: the hand-over tilt (deg) above which the trained policy acts."""
+    """With ``upright_policy`` or ``tilted_policy``: the hand-over tilt (deg)."""
     upright_masked: bool = False
-    """With ``upright_policy``: leave the overridden steps out of PPO's policy gradient
+    """With ``upright_policy`` or ``tilted_policy`` on a teacher: leave the overridden steps out of PPO's policy gradient
     (advantages normalised over the steps the trained policy acted in, zero elsewhere, scaled by
     1 / their share; ``selfright.train.override_mask``). The critic still learns from every step."""
     curriculum: bool = False

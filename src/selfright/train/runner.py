@@ -184,8 +184,12 @@ class TrainingRun:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
         if s.train.episode.upright_policy is not None and s.role != "teacher":
             raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
-        if s.train.episode.upright_masked and s.train.episode.upright_policy is None:
-            raise ValueError("--train.episode.upright-masked needs --train.episode.upright-policy (the steps it masks)")
+        ep = s.train.episode
+        if ep.upright_policy is not None and ep.tilted_policy is not None:
+            raise ValueError("give --train.episode.upright-policy or --train.episode.tilted-policy, not both")
+        if ep.upright_masked and (ep.upright_policy is None and ep.tilted_policy is None or s.role != "teacher"):
+            raise ValueError("--train.episode.upright-masked masks PPO's overridden steps: it needs a teacher run "
+                             "with --train.episode.upright-policy or --train.episode.tilted-policy")
         if s.init_from is not None:
             if s.role != "teacher":
                 raise ValueError("--init-from is for teachers; a student starts from --teacher")
@@ -227,10 +231,11 @@ class TrainingRun:
             bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
             device=s.device,
         )
-        if s.train.episode.upright_policy is not None:
+        ep = s.train.episode
+        frozen, side = (ep.upright_policy, "upright") if ep.upright_policy is not None else (ep.tilted_policy, "tilted")
+        if frozen is not None:
             self.env.action_override = load_upright_override(
-                Path(s.train.episode.upright_policy), s.train.episode.upright_tilt_deg, s.num_envs,
-                self.env.env.robot, s.bench.action,
+                Path(frozen), ep.upright_tilt_deg, s.num_envs, self.env.env.robot, s.bench.action, side,
             )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
         runner_cls = OnPolicyRunner if s.role == "teacher" else DistillationRunner

@@ -17,11 +17,17 @@ no effect on what follows, so its advantage carries no signal about it and adds 
 while the critic learns the composite's values (``EpisodeConfig.upright_masked`` drops those
 steps from the policy gradient: ``selfright.train.override_mask``). Reward, observations (the previous action is
 the one applied) and the benchmark are unchanged.
+
+The other way round (``EpisodeConfig.tilted_policy``, ``acts_when="tilted"``), a frozen escape
+teacher acts in every tilted step, and the trained policy, typically a student of the stand-up
+teacher, acts only once the robot is within the tilt: it then learns on the states the
+composite's escape phase hands over, with none of its capacity spent on imitating the escape.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import torch
 
@@ -34,21 +40,25 @@ from selfright.train.commands import load_checkpoint_actor
 
 
 class UprightOverride:
-    """Replaces actions by ``actor``'s wherever the trunk is within ``tilt_deg`` of upright.
+    """Replaces actions by ``actor``'s wherever the trunk is within ``tilt_deg`` of upright
+    (``acts_when="upright"``), or wherever it is tilted more (``"tilted"``).
 
     Args:
-        actor: the frozen stand-up policy; reads the ``teacher`` observation (k, D).
-        tilt_deg: the hand-over tilt (deg): the trained policy acts only above it.
+        actor: the frozen policy; reads the ``teacher`` observation (k, D).
+        tilt_deg: the hand-over tilt (deg).
         num_envs: env slots.
         offset: (J,) (actor's reference pose − the env's) / action scale when the actor was
             trained around another fixed pose than the env's ``--action-reference``; None if
             the same.
+        acts_when: on which side of the tilt the frozen policy acts.
     """
 
-    def __init__(self, actor: ActorMLP, tilt_deg: float, num_envs: int, offset: torch.Tensor | None = None):
+    def __init__(self, actor: ActorMLP, tilt_deg: float, num_envs: int, offset: torch.Tensor | None = None,
+                 acts_when: Literal["upright", "tilted"] = "upright"):
         if actor.meta.obs_group != "teacher" or actor.recurrent or actor.meta.obs_history > 1:
-            raise ValueError("the upright policy must be a feed-forward teacher (it reads the teacher observation)")
+            raise ValueError("the frozen policy must be a feed-forward teacher (it reads the teacher observation)")
         self.actor = actor.eval()
+        self.acts_when = acts_when
         self.switch = TiltSwitch(tilt_deg)
         self.offset = offset
         self.fresh = torch.ones(num_envs, dtype=torch.bool)
@@ -60,19 +70,20 @@ class UprightOverride:
 
     @torch.no_grad()
     def __call__(self, teacher_obs: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        """``actions`` (n, J) with the upright slots' replaced by the frozen policy's (a copy)."""
+        """``actions`` (n, J) with the overridden slots' replaced by the frozen policy's (a copy)."""
         x = teacher_obs.detach().cpu().float()
-        upright = ~self.switch.step(x, None)
+        tilted = self.switch.step(x, None)
+        rows = tilted if self.acts_when == "tilted" else ~tilted
         out = actions.detach().cpu().clone()
-        if upright.any():
-            xu = x[upright]
+        if rows.any():
+            xu = x[rows]
             if self.offset is not None:
-                xu = in_own_units(xu, self.offset, ~self.fresh[upright])
+                xu = in_own_units(xu, self.offset, ~self.fresh[rows])
             a = self.actor(xu)
-            out[upright] = a if self.offset is None else a + self.offset
+            out[rows] = a if self.offset is None else a + self.offset
         self.fresh[:] = False
-        self.overridden = upright
-        self.share = upright.float().mean()
+        self.overridden = rows
+        self.share = rows.float().mean()
         return out
 
     def reset(self, ids: torch.Tensor) -> None:
@@ -81,7 +92,8 @@ class UprightOverride:
 
 
 def load_upright_override(
-    path: Path, tilt_deg: float, num_envs: int, robot: RobotSpec, action: ActionConfig
+    path: Path, tilt_deg: float, num_envs: int, robot: RobotSpec, action: ActionConfig,
+    acts_when: Literal["upright", "tilted"] = "upright",
 ) -> UprightOverride:
     """``UprightOverride`` of the teacher checkpoint (or run folder) ``path``, loaded as
     ``selfright export`` loads one; its recorded action mapping is converted to ``action`` if it
@@ -91,5 +103,6 @@ def load_upright_override(
     try:
         offset = reference_offset(robot, trained, action)
     except ValueError as e:
-        raise ValueError(f"--train.episode.upright-policy {path}: {e}; only fixed poses (stand / tall) convert") from None
-    return UprightOverride(actor, tilt_deg, num_envs, None if offset is None else torch.as_tensor(offset, dtype=torch.float32))
+        raise ValueError(f"--train.episode.{acts_when}-policy {path}: {e}; only fixed poses (stand / tall) convert") from None
+    return UprightOverride(actor, tilt_deg, num_envs, None if offset is None else torch.as_tensor(offset, dtype=torch.float32),
+                           acts_when)

@@ -124,7 +124,7 @@ class RecoveryVecEnv(VecEnv):
         """Each slot's settled next episode start, drawn ahead in batches (``prepare_starts``)."""
         self.action_override: UprightOverride | None = None
         """Replaces the policy's actions before they are applied, given the teacher
-        observation (``EpisodeConfig.upright_policy``); told of every slot that starts a new
+        observation (``EpisodeConfig.upright_policy`` or ``tilted_policy``); told of every slot that starts a new
         episode."""
         self.reset_all()
 
