@@ -32,7 +32,7 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy
 from selfright.policies.stall import hand_over_rule
-from selfright.policies.variants import Fallback, MeanOf, Noisy, trained_std
+from selfright.policies.variants import Blinded, Fallback, MeanOf, Noisy, trained_std
 from selfright.robots import get_robot
 
 
@@ -55,6 +55,9 @@ class Args:
     tilt_deg: float = 0.0
     """With two policies: the second acts whenever the robot is tilted more than this from
     upright, the first otherwise (``selfright.policies.stall.TiltSwitch``); 0 = off."""
+    blind_first: tuple[str, ...] = ()
+    """Privileged blocks hidden from the first policy (a teacher): ``velocity`` (read as 0),
+    ``friction`` (1.0), ``factors`` (1.0); ``selfright.policies.variants.Blinded``."""
     feed_both: bool = False
     """With two policies: the second sees every step, not only those it acts in (needed when
     it reads a history of observations: a student)."""
@@ -71,6 +74,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
             raise ValueError("--noise-scale takes one policy")
         return Noisy(make_policy(a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
     members = [make_policy(p, cfg) for p in a.policies]
+    if a.blind_first:
+        members[0] = Blinded(members[0], a.blind_first)
     if a.fallback_s > 0 and a.tilt_deg > 0:
         raise ValueError("give --fallback-s or --tilt-deg, not both")
     if (a.fallback_s > 0 or a.tilt_deg > 0) and len(members) != 2:

@@ -296,3 +296,28 @@ def test_fallback_with_a_bar_counts_a_low_upright_stall():
     obs[:, 2] = -1.0  # both upright and still
     obs[:, teacher_height_column(12)] = torch.tensor([0.2, 0.35])  # slot 0 sits low, slot 1 stands
     assert fb.act({"teacher": obs}, ids, [None, None])[:, 0].tolist() == [2.0, 1.0]
+
+
+def test_blinded_teacher_sees_fixed_privileged_blocks():
+    from selfright.env.observations import privileged_columns
+    from selfright.policies.variants import Blinded
+
+    seen = []
+
+    class _Echo(Policy):
+        def act(self, obs, ids, contexts):
+            seen.append(obs["teacher"].clone())
+            return torch.zeros(len(ids), 12)
+
+    cols = privileged_columns(12)
+    assert cols["factors"].stop == 79  # the teacher observation's width
+    x = torch.randn(3, 79)
+    Blinded(_Echo(), ["velocity", "factors"]).act({"teacher": x}, np.arange(3), [None] * 3)
+    got = seen[-1]
+    assert torch.equal(got[:, cols["velocity"]], torch.zeros(3, 3))
+    assert torch.equal(got[:, cols["factors"]], torch.ones(3, 3))
+    keep = torch.ones(79, dtype=torch.bool)
+    keep[cols["velocity"]] = keep[cols["factors"]] = False
+    assert torch.equal(got[:, keep], x[:, keep])  # the rest untouched, the caller's tensor too
+    with pytest.raises(ValueError, match="cannot blind"):
+        Blinded(_Echo(), ["scan"])

@@ -62,10 +62,21 @@ def prev_action_columns(num_joints: int) -> slice:
     return slice(6 + 2 * num_joints, 6 + 3 * num_joints)
 
 
+def privileged_columns(num_joints: int) -> dict[str, slice]:
+    """Columns of each privileged block in the teacher observation (the student's first, then
+    ``privileged_obs``'s order)."""
+    sizes = {"slope": 1, "uphill": 3, "friction": 1, "velocity": 3, "height": 1, "scan": num_scan_points(), "factors": 3}
+    out, start = {}, 6 + 3 * num_joints
+    for name, n in sizes.items():
+        out[name] = slice(start, start + n)
+        start += n
+    return out
+
+
 def teacher_height_column(num_joints: int) -> int:
     """Column of the trunk height above the ground in the teacher observation (student,
     slope angle, uphill direction, friction, trunk linear velocity, then the height)."""
-    return 6 + 3 * num_joints + 1 + 3 + 1 + 3
+    return privileged_columns(num_joints)["height"].start
 
 
 def privileged_obs(

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from selfright.env.observations import privileged_columns
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
@@ -32,6 +33,34 @@ class MeanOf(Policy):
 
     def act(self, obs, ids, contexts):
         return torch.stack([p.act(obs, ids, contexts) for p in self.members]).mean(0)
+
+
+BLIND_VALUES = {"velocity": 0.0, "friction": 1.0, "factors": 1.0}
+"""What ``Blinded`` puts in each privileged block it hides: a trunk at rest, the nominal
+friction, the nominal mass and gain factors."""
+
+
+class Blinded(Policy):
+    """``inner`` (a teacher) with privileged blocks of its observation replaced by fixed
+    values (``BLIND_VALUES``): how much its behaviour rests on what a student cannot sense."""
+
+    def __init__(self, inner: Policy, blocks: Sequence[str], num_joints: int = 12):
+        unknown = set(blocks) - set(BLIND_VALUES)
+        if unknown:
+            raise ValueError(f"cannot blind {sorted(unknown)}; choose from {sorted(BLIND_VALUES)}")
+        cols = privileged_columns(num_joints)
+        self.inner, self.blocks = inner, [(cols[b], BLIND_VALUES[b]) for b in blocks]
+        self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
+        self.name = f"{inner.name} blind to {', '.join(blocks)}"
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.inner.reset(ids, seeds)
+
+    def act(self, obs, ids, contexts):
+        x = obs["teacher"].clone()
+        for cols, value in self.blocks:
+            x[:, cols] = value
+        return self.inner.act({**obs, "teacher": x}, ids, contexts)
 
 
 class Noisy(Policy):
