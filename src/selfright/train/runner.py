@@ -182,12 +182,13 @@ class TrainingRun:
         has_ckpt = bool(list_checkpoints(self.out))
         if s.resume and not has_ckpt:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
-        if s.train.episode.upright_policy is not None and s.role != "teacher":
-            raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
         ep = s.train.episode
+        if ep.upright_policy is not None and s.role != "teacher":
+            raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
         if ep.upright_policy is not None and ep.tilted_policy is not None:
             raise ValueError("give --train.episode.upright-policy or --train.episode.tilted-policy, not both")
-        if ep.upright_masked and (ep.upright_policy is None and ep.tilted_policy is None or s.role != "teacher"):
+        overridden = ep.upright_policy is not None or ep.tilted_policy is not None
+        if ep.upright_masked and (not overridden or s.role != "teacher"):
             raise ValueError("--train.episode.upright-masked masks PPO's overridden steps: it needs a teacher run "
                              "with --train.episode.upright-policy or --train.episode.tilted-policy")
         if s.init_from is not None:
@@ -247,7 +248,7 @@ class TrainingRun:
             is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
             device=r.device, hook=self._on_iteration,
         )
-        if self.env.action_override is not None and s.train.episode.upright_masked:
+        if self.env.action_override is not None and ep.upright_masked:
             attach_override_mask(r.alg, self.env.action_override)
         if s.role == "student" and s.train.distillation.ema_decay > 0:
             attach_weight_average(r.alg, s.train.distillation.ema_decay)

@@ -65,8 +65,6 @@ class UprightOverride:
         """Slots whose episode has not taken a step yet (their previous action reads 0 in any units)."""
         self.overridden = torch.zeros(num_envs, dtype=torch.bool)
         """Slots overridden at the latest step (what ``selfright.train.override_mask`` records)."""
-        self.share = torch.tensor(0.0)
-        """Fraction of the slots overridden at the latest step (a 0-d tensor, for the log)."""
 
     @torch.no_grad()
     def __call__(self, teacher_obs: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
@@ -83,8 +81,12 @@ class UprightOverride:
             out[rows] = a if self.offset is None else a + self.offset
         self.fresh[:] = False
         self.overridden = rows
-        self.share = rows.float().mean()
         return out
+
+    @property
+    def share(self) -> torch.Tensor:
+        """Fraction of the slots overridden at the latest step (a 0-d tensor, for the log)."""
+        return self.overridden.float().mean()
 
     def reset(self, ids: torch.Tensor) -> None:
         """Slots ``ids`` start new episodes."""
