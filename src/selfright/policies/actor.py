@@ -11,7 +11,9 @@ A trained actor travels in three forms, all built here:
 
 The MLP's layer names match rsl_rl's ``MLPModel.mlp`` (``mlp.0.weight`` ...), so weights
 copy over unchanged; a recurrent student (rsl_rl ``RNNModel`` with a GRU) has its GRU
-between the normaliser and the MLP.
+between the normaliser and the MLP; a student with a velocity estimator
+(``selfright.train.velocity_estimator``) has an ``estimator`` MLP whose output the MLP reads
+beside the normalised input.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ FILE_FORMAT = "selfright.actor"
 FILE_VERSION = 1
 RSL_RL_NORMALIZER_EPS = 1e-2
 """``EmpiricalNormalization``'s default eps: rsl_rl normalises as (x − mean) / (std + eps)."""
+ESTIMATE_DIM = 3
+"""Output size of a student's velocity estimator: trunk linear velocity, body frame (m/s)."""
 GROUP_BY_DIM = {42: "student", 79: "teacher"}
 """Observation group by input size (A1: 9 + 3·12 = 42; + 37 privileged = 79)."""
 
@@ -84,16 +88,21 @@ class ActorMeta:
     gru_dim: int = 0
     """Hidden size of the GRU between the normaliser and the MLP; 0 = feed-forward. The
     policy keeps the hidden state per env slot (``selfright.policies.recurrent``)."""
+    estimator_dims: tuple[int, ...] = ()
+    """Hidden widths of the velocity estimator between the normaliser and the MLP (its
+    ``ESTIMATE_DIM`` outputs join the MLP's input); () = none."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["hidden_dims"] = list(self.hidden_dims)
+        d["estimator_dims"] = list(self.estimator_dims)
         return d
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> ActorMeta:
         d = dict(d)
         d["hidden_dims"] = tuple(int(h) for h in d["hidden_dims"])
+        d["estimator_dims"] = tuple(int(h) for h in d.get("estimator_dims", ()))
         known = ActorMeta.__dataclass_fields__
         return ActorMeta(**{k: v for k, v in d.items() if k in known})
 
@@ -103,22 +112,24 @@ class ActorMLP(nn.Module):
 
     With ``meta.gru_dim`` H > 0 a GRU sits before the MLP and the actor is a step function
     ``(obs (k, D), hidden (k, H)) -> (actions (k, J), hidden (k, H))``; the hidden state of an
-    episode's first step is zeros."""
+    episode's first step is zeros.
+
+    With ``meta.estimator_dims`` the MLP reads ``[x, estimator(x)]``, x the normalised input
+    (feed-forward actors only)."""
 
     def __init__(self, meta: ActorMeta):
         super().__init__()
+        if meta.estimator_dims and meta.gru_dim > 0:
+            raise ValueError("an actor has a GRU or a velocity estimator, not both")
         self.meta = meta
         self.eps = float(meta.normalizer_eps)
         self.obs_normalization = bool(meta.obs_normalization)
         self.register_buffer("obs_mean", torch.zeros(meta.obs_dim))
         self.register_buffer("obs_std", torch.ones(meta.obs_dim))
         self.gru = nn.GRU(meta.obs_dim, meta.gru_dim) if meta.gru_dim > 0 else None
-        dims = [meta.gru_dim or meta.obs_dim, *meta.hidden_dims]
-        layers: list[nn.Module] = []
-        for a, b in zip(dims[:-1], dims[1:]):
-            layers += [nn.Linear(a, b), resolve_nn_activation(meta.activation)]
-        layers.append(nn.Linear(dims[-1], meta.action_dim))
-        self.mlp = nn.Sequential(*layers)
+        self.estimator = _mlp(meta.obs_dim, meta.estimator_dims, ESTIMATE_DIM, meta.activation) if meta.estimator_dims else None
+        width = meta.gru_dim or meta.obs_dim + (ESTIMATE_DIM if meta.estimator_dims else 0)
+        self.mlp = _mlp(width, meta.hidden_dims, meta.action_dim, meta.activation)
 
     @property
     def recurrent(self) -> bool:
@@ -127,6 +138,8 @@ class ActorMLP(nn.Module):
     def forward(self, obs: torch.Tensor, hidden: torch.Tensor | None = None) -> Any:
         """Actions (k, J); for a recurrent actor ``(actions, hidden)`` from ``hidden`` (k, H)."""
         x = self._normalize(obs)
+        if self.estimator is not None:
+            x = torch.cat([x, self.estimator(x)], dim=-1)
         if self.gru is None:
             return self.mlp(x)
         out, h = self.gru(x.unsqueeze(0), self._required(hidden).unsqueeze(0))
@@ -146,13 +159,10 @@ class ActorMLP(nn.Module):
         h = None
         if self.gru is not None:
             x = h = self._gru_rows(x, self._required(hidden))
-        x = x.unsqueeze(1)
-        for layer in self.mlp:
-            if isinstance(layer, nn.Linear):
-                x = _linear_rows(x, layer.weight, layer.bias)
-            else:
-                x = _padded_rows(layer, x.squeeze(1)).unsqueeze(1)  # elementwise activation
-        return x.squeeze(1) if h is None else (x.squeeze(1), h)
+        if self.estimator is not None:
+            x = torch.cat([x, _sequential_rows(self.estimator, x)], dim=-1)
+        x = _sequential_rows(self.mlp, x)
+        return x if h is None else (x, h)
 
     @staticmethod
     def _required(hidden: torch.Tensor | None) -> torch.Tensor:
@@ -185,6 +195,28 @@ elementwise kernel, so no element of a row falls to the scalar tail loop."""
 ELEMENTWISE_GRAIN = 32768
 """Elements torch runs on one thread (``at::internal::GRAIN_SIZE``): a larger call is split
 across threads at positions that need not fall on row boundaries."""
+
+
+def _mlp(width: int, hidden: tuple[int, ...], out: int, activation: str) -> nn.Sequential:
+    """Linear layers ``width -> hidden... -> out`` with ``activation`` between (rsl_rl ``MLP``'s layout)."""
+    dims = [width, *hidden]
+    layers: list[nn.Module] = []
+    for a, b in zip(dims[:-1], dims[1:]):
+        layers += [nn.Linear(a, b), resolve_nn_activation(activation)]
+    layers.append(nn.Linear(dims[-1], out))
+    return nn.Sequential(*layers)
+
+
+def _sequential_rows(seq: nn.Sequential, x: torch.Tensor) -> torch.Tensor:
+    """``seq(x)`` for x (k, D) of linear layers and elementwise activations, row by row (see
+    ``ActorMLP.forward_rows``)."""
+    x = x.unsqueeze(1)
+    for layer in seq:
+        if isinstance(layer, nn.Linear):
+            x = _linear_rows(x, layer.weight, layer.bias)
+        else:
+            x = _padded_rows(layer, x.squeeze(1)).unsqueeze(1)  # elementwise activation
+    return x.squeeze(1)
 
 
 def _linear_rows(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.Tensor:
@@ -220,9 +252,7 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         sd, role = ckpt["actor_state_dict"], "teacher"
     else:
         raise ValueError("checkpoint holds neither 'actor_state_dict' nor 'student_state_dict'")
-    layers = sorted(
-        (int(m.group(1)), k) for k in sd if (m := re.fullmatch(r"mlp\.(\d+)\.weight", k)) is not None
-    )
+    layers = _linear_layers(sd, "mlp")
     if not layers:
         raise ValueError("checkpoint actor has no MLP weights (mlp.<i>.weight)")
     shapes = [tuple(sd[k].shape) for _, k in layers]
@@ -235,6 +265,12 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
             raise ValueError(f"actor with a state-dependent std needs an even output size, got {shapes[-1][0]}")
         shapes[-1] = (shapes[-1][0] // 2, shapes[-1][1])
     gru_dim, obs_dim = 0, shapes[0][1]
+    estimator = _linear_layers(sd, "estimator")
+    estimator_dims = tuple(int(sd[k].shape[0]) for _, k in estimator[:-1])
+    if estimator:  # the MLP reads [input, estimate]
+        obs_dim = int(sd[estimator[0][1]].shape[1])
+        if tuple(sd[estimator[-1][1]].shape)[0] != ESTIMATE_DIM or shapes[0][1] != obs_dim + ESTIMATE_DIM:
+            raise ValueError(f"velocity estimator of this actor does not output {ESTIMATE_DIM} values into its MLP")
     if "rnn.rnn.weight_hh_l0" in sd:  # rsl_rl RNNModel: RNN(obs) -> MLP
         w_ih, w_hh = sd["rnn.rnn.weight_ih_l0"], sd["rnn.rnn.weight_hh_l0"]
         gru_dim, obs_dim = int(w_hh.shape[1]), int(w_ih.shape[1])
@@ -260,9 +296,10 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         action_scale_rad=float(hint.get("action_scale_rad", 0.0)),
         obs_history=history,
         gru_dim=gru_dim,
+        estimator_dims=estimator_dims,
     )
     actor = ActorMLP(meta)
-    state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))
+    state = OrderedDict((k, v) for k, v in sd.items() if k.startswith(("mlp.", "estimator.")))
     if gru_dim:
         state.update(("gru." + k.removeprefix("rnn.rnn."), v) for k, v in sd.items() if k.startswith("rnn.rnn."))
     if two_heads:  # keep the mean head: the first half of the last layer's rows
@@ -279,14 +316,21 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
     return actor.eval()
 
 
+def _linear_layers(sd: dict[str, torch.Tensor], prefix: str) -> list[tuple[int, str]]:
+    """(index, key) of the ``PREFIX.<i>.weight`` entries of ``sd``, in layer order."""
+    pattern = re.compile(rf"{prefix}\.(\d+)\.weight")
+    return sorted((int(m.group(1)), k) for k in sd if (m := pattern.fullmatch(k)) is not None)
+
+
 def teacher_checkpoint(actor: ActorMLP) -> dict[str, Any]:
     """An rsl_rl PPO-style checkpoint (``actor_state_dict``, ``iter``, ``infos``) holding
     ``actor``'s weights: the inverse of ``actor_from_checkpoint`` for a feed-forward actor, so
     that a shipped or exported teacher can be distilled from (``--teacher``). It has no critic
     or optimiser, so it cannot resume PPO; its action std (unused by a frozen teacher) is 1."""
     m = actor.meta
-    if actor.recurrent:
-        raise ValueError("a recurrent actor has no PPO checkpoint form (teachers are feed-forward)")
+    if actor.recurrent or actor.estimator is not None:
+        raise ValueError("a recurrent actor or one with a velocity estimator has no PPO checkpoint form "
+                         "(teachers are plain feed-forward)")
     sd: OrderedDict[str, torch.Tensor] = OrderedDict()
     if m.obs_normalization:
         mean, std = actor.obs_mean.detach().clone(), actor.obs_std.detach().clone()

@@ -203,6 +203,14 @@ class DistillationConfig:
     fixed window; it is trained by truncated backpropagation through ``gradient_length``
     steps and deployed with its hidden state kept per env slot, reset at each episode's start
     (``selfright.policies.recurrent``)."""
+    velocity_estimator: tuple[int, ...] = ()
+    """Hidden widths of a trunk-velocity estimator inside the student
+    (``selfright.train.velocity_estimator``): an MLP from the student's normalised input to the
+    body-frame trunk linear velocity (3, m/s), regressed on the teacher observation's true
+    velocity on every rollout, whose estimate the student's MLP reads beside its input. It ships
+    inside the policy (deployment needs only the student's observations). () = no estimator."""
+    estimator_learning_rate: float = 1e-3
+    """Adam learning rate of the velocity estimator (1/update; 2 epochs × 4 minibatches per rollout)."""
     fallback_teacher: str | None = None
     """A second teacher checkpoint that labels some states instead of the first
     (``selfright.train.fallback_teacher``): those where the robot has stalled under the first
@@ -298,7 +306,8 @@ class TrainConfig:
             **common,
             "num_steps_per_env": d.steps_per_env,
             "obs_groups": {"student": [student_group(d.student_history)], "teacher": ["teacher"]},
-            "student": {**_student_cfg(pol, d.student_gru), "distribution_cfg": _gaussian(d.student_init_std)},
+            "student": {**_student_cfg(pol, d.student_gru, d.velocity_estimator),
+                        "distribution_cfg": _gaussian(d.student_init_std)},
             # The teacher acts deterministically; init_std 0 as rsl_rl's maintainers advise
             # (its trained std is loaded with the weights and never used).
             "teacher": {
@@ -342,8 +351,12 @@ def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:
     }
 
 
-def _student_cfg(pol: PolicyConfig, gru: int) -> dict[str, Any]:
-    """The student network: the actor MLP, behind a one-layer GRU of ``gru`` units if ``gru`` > 0."""
+def _student_cfg(pol: PolicyConfig, gru: int, estimator: tuple[int, ...] = ()) -> dict[str, Any]:
+    """The student network: the actor MLP, behind a one-layer GRU of ``gru`` units if ``gru`` > 0,
+    or reading a velocity estimator of hidden widths ``estimator`` if given (not both)."""
+    if estimator:  # (TrainingRun refuses both)
+        return {**_mlp_cfg(pol), "class_name": "selfright.train.velocity_estimator:EstimatorMLPModel",
+                "estimator_dims": list(estimator)}
     if gru <= 0:
         return _mlp_cfg(pol)
     return {**_mlp_cfg(pol), "class_name": "RNNModel", "rnn_type": "gru", "rnn_hidden_dim": gru, "rnn_num_layers": 1}

@@ -50,6 +50,7 @@ from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.override_mask import attach_override_mask
 from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
+from selfright.train.velocity_estimator import attach_velocity_estimator
 
 PROGRESS_EVERY_S = 10.0
 """Seconds between one-line progress reports (the first iterations always report)."""
@@ -191,6 +192,10 @@ class TrainingRun:
         if ep.upright_masked and (not overridden or s.role != "teacher"):
             raise ValueError("--train.episode.upright-masked masks PPO's overridden steps: it needs a teacher run "
                              "with --train.episode.upright-policy or --train.episode.tilted-policy")
+        d = s.train.distillation
+        if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
+            raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
+                             "no --train.distillation.student-gru)")
         if s.init_from is not None:
             if s.role != "teacher":
                 raise ValueError("--init-from is for teachers; a student starts from --teacher")
@@ -250,7 +255,9 @@ class TrainingRun:
         )
         if self.env.action_override is not None and ep.upright_masked:
             attach_override_mask(r.alg, self.env.action_override)
-        if s.role == "student" and s.train.distillation.ema_decay > 0:
+        if s.role == "student" and s.train.distillation.velocity_estimator:
+            attach_velocity_estimator(r.alg, s.train.distillation.estimator_learning_rate, s.seed + start_it)
+        if s.role == "student" and s.train.distillation.ema_decay > 0:  # after the estimator: averages its update too
             attach_weight_average(r.alg, s.train.distillation.ema_decay)
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
         if fallback is not None:
@@ -342,6 +349,7 @@ class TrainingRun:
             "action_scale_rad": self.spec.bench.action.scale_rad,
             "obs_history": self.spec.train.distillation.student_history if self.spec.role == "student" else 1,
             "gru_dim": self.spec.train.distillation.student_gru if self.spec.role == "student" else 0,
+            "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if self.spec.role == "student" else [],
         }
 
     def meta(self, done_it: int, checkpoint: Path | None) -> dict[str, Any]:

@@ -137,7 +137,9 @@ def model_card(
         "",
         f"- **Role**: {meta.get('role')} (observation group `{actor.obs_group}`"
         + (f", its last {actor.obs_history} frames stacked oldest first" if actor.obs_history > 1 else "")
-        + (f", through a GRU of {actor.gru_dim} units that remembers the episode)" if actor.gru_dim > 0 else ")")
+        + (f", through a GRU of {actor.gru_dim} units that remembers the episode" if actor.gru_dim > 0 else "")
+        + (f", with a trunk-velocity estimator ({'-'.join(map(str, actor.estimator_dims))} units) trained on the "
+           "privileged velocity, whose estimate its MLP reads)" if actor.estimator_dims else ")")
         + (f", distilled from `{teacher}`{fallback_words}" if teacher else ""),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),

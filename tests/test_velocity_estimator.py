@@ -1,0 +1,121 @@
+"""The student's trunk-velocity estimator (``selfright.train.velocity_estimator``): where its
+gradients flow, that it learns its target, that the deployed actor (policy file, ONNX) computes
+what the trained model does, and a distillation run that trains, saves and resumes it."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+
+from selfright.env.observations import privileged_columns
+from selfright.policies.actor import actor_from_checkpoint, export_onnx, load_actor_file, save_actor_file, teacher_checkpoint
+from selfright.policies.learned import load_policy_file
+from selfright.train.checkpoints import latest_checkpoint
+from selfright.train.velocity_estimator import OPTIMIZER_KEY, EstimatorMLPModel, EstimatorTrainer
+
+from test_learning_smoke import TINY, run, spec
+
+FRAMES = 3
+STUDENT, TEACHER = 42, 79
+
+
+def rollout(n: int, seed: int = 0) -> TensorDict:
+    """Observation groups of ``n`` samples whose true velocity is a fixed linear map of the
+    student's latest frame (so an estimator can learn it)."""
+    g = torch.Generator().manual_seed(seed)
+    student = torch.randn(n, STUDENT, generator=g)
+    teacher = torch.cat([student, torch.randn(n, TEACHER - STUDENT, generator=g)], dim=-1)
+    w = torch.linspace(-1.0, 1.0, STUDENT * 3).reshape(STUDENT, 3) / 4.0
+    teacher[:, privileged_columns(12)["velocity"]] = student @ w
+    history = torch.cat([torch.randn(n, (FRAMES - 1) * STUDENT, generator=g), student], dim=-1)
+    return TensorDict({"student": student, "student_history": history, "teacher": teacher}, batch_size=[n])
+
+
+def model(seed: int = 0) -> EstimatorMLPModel:
+    torch.manual_seed(seed)
+    m = EstimatorMLPModel(rollout(4), {"student": ["student_history"]}, "student", 12, hidden_dims=(32, 16),
+                          activation="elu", obs_normalization=True, estimator_dims=(24, 8),
+                          distribution_cfg={"class_name": "GaussianDistribution", "init_std": 0.1})
+    m.train()
+    m.update_normalization(rollout(256, seed=7))
+    return m
+
+
+def test_target_is_the_body_velocity_and_only_the_regression_trains_the_estimator():
+    m = model()
+    obs = rollout(16)
+    assert m.target_columns == slice(47, 50)  # 42 student + slope 1 + uphill 3 + friction 1
+    torch.testing.assert_close(m.target(obs), obs["teacher"][:, 47:50])
+    m(obs).pow(2).sum().backward()  # a behaviour-cloning-like loss
+    assert all(p.grad is None for p in m.estimator.parameters())
+    assert m.mlp[0].weight.grad is not None
+    m.zero_grad()
+    m.estimate(obs).pow(2).sum().backward()
+    assert all(p.grad is not None for p in m.estimator.parameters())
+    assert m.mlp[0].weight.grad is None
+    with pytest.raises(ValueError, match="target group"):
+        EstimatorMLPModel(obs, {"student": ["student", "teacher"]}, "student", 12, estimator_dims=(8,))
+
+
+def test_trainer_fits_the_velocity():
+    m = model()
+    trainer = EstimatorTrainer(m, 3e-3, torch.Generator().manual_seed(0))
+    data = rollout(512, seed=3).reshape(8, 64)  # (steps, envs), as rsl_rl's storage holds it
+    first = trainer.fit(data)
+    for _ in range(60):
+        last = trainer.fit(data)
+    assert last < 0.2 * first
+
+
+def test_deployed_actor_matches_the_trained_model(tmp_path: Path):
+    m = model().eval()
+    actor = actor_from_checkpoint({"student_state_dict": m.state_dict()}, {"obs_history": FRAMES})
+    assert actor.meta.estimator_dims == (24, 8) and actor.meta.obs_dim == FRAMES * STUDENT
+    obs = rollout(70, seed=5)
+    x = obs["student_history"]
+    with torch.no_grad():
+        expected = m(obs)
+        torch.testing.assert_close(actor(x), expected, atol=1e-6, rtol=0)
+        rows = actor.forward_rows(x)
+        torch.testing.assert_close(rows, expected, atol=1e-5, rtol=0)
+        for start, size in [(0, 1), (5, 9), (20, 50)]:
+            assert torch.equal(actor.forward_rows(x[start : start + size]), rows[start : start + size])
+    save_actor_file(tmp_path / "a.pt", actor)
+    again = load_actor_file(tmp_path / "a.pt")
+    assert again.meta.estimator_dims == (24, 8)
+    with torch.no_grad():
+        assert torch.equal(again(x), actor(x))
+    export_onnx(actor, tmp_path / "a.onnx")
+    policy = load_policy_file(tmp_path / "a.onnx")
+    out = policy.act({"student": x[:1, -STUDENT:]}, np.arange(1), [None])  # one env: its history fills with the frame
+    with torch.no_grad():
+        first = actor(x[:1, -STUDENT:].repeat(1, FRAMES))
+    torch.testing.assert_close(out, first, atol=1e-5, rtol=0)
+    with pytest.raises(ValueError, match="estimator"):
+        teacher_checkpoint(actor)
+
+
+def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path):
+    teacher = tmp_path / "teacher"
+    run(spec(teacher))
+    train = dataclasses.replace(TINY, distillation=dataclasses.replace(
+        TINY.distillation, velocity_estimator=(16,), student_history=2))
+    student = tmp_path / "student"
+    r = run(spec(student, role="student", teacher=teacher, iterations=2, train=train))
+    assert "velocity" in r.last_loss and np.isfinite(r.last_loss["velocity"])
+    ckpt = torch.load(latest_checkpoint(student), weights_only=True)
+    assert OPTIMIZER_KEY in ckpt and "estimator.0.weight" in ckpt["student_state_dict"]
+    actor = actor_from_checkpoint(ckpt, ckpt["infos"])
+    assert actor.meta.estimator_dims == (16,) and actor.meta.obs_history == 2
+    r = run(spec(student, role="student", teacher=teacher, iterations=3, train=train, resume=True))
+    assert r.start_it == 2
+    resumed = torch.load(latest_checkpoint(student), weights_only=True)
+    assert not torch.equal(resumed["student_state_dict"]["estimator.0.weight"], ckpt["student_state_dict"]["estimator.0.weight"])
+    with pytest.raises(ValueError, match="feed-forward students"):
+        gru = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, student_gru=8))
+        run(spec(tmp_path / "gru", role="student", teacher=teacher, train=gru))
