@@ -30,9 +30,9 @@ from selfright.config import BenchmarkConfig
 from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
-from selfright.policies.registry import make_policy
+from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import hand_over_rule
-from selfright.policies.variants import Blinded, Fallback, MeanOf, Noisy, trained_std
+from selfright.policies.variants import Blinded, EstimatedVelocity, Fallback, MeanOf, Noisy, trained_std
 from selfright.robots import get_robot
 
 
@@ -58,6 +58,10 @@ class Args:
     blind_first: tuple[str, ...] = ()
     """Privileged blocks hidden from the first policy (a teacher): ``velocity`` (read as 0),
     ``friction`` (1.0), ``factors`` (1.0); ``selfright.policies.variants.Blinded``."""
+    estimate_first: str | None = None
+    """A student checkpoint (or run folder) with a velocity estimator: the first policy (a
+    teacher with the same action mapping) reads the estimate from the student's observation
+    history instead of its true trunk velocity (``selfright.policies.variants.EstimatedVelocity``)."""
     feed_both: bool = False
     """With two policies: the second sees every step, not only those it acts in (needed when
     it reads a history of observations: a student)."""
@@ -76,6 +80,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     members = [make_policy(p, cfg) for p in a.policies]
     if a.blind_first:
         members[0] = Blinded(members[0], a.blind_first)
+    if a.estimate_first:
+        members[0] = estimated_first(a.policies[0], a.estimate_first, cfg)
     if a.fallback_s > 0 and a.tilt_deg > 0:
         raise ValueError("give --fallback-s or --tilt-deg, not both")
     if (a.fallback_s > 0 or a.tilt_deg > 0) and len(members) != 2:
@@ -85,6 +91,19 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         return Fallback(*members, hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar),
                         feed_both=a.feed_both)
     return members[0] if len(members) == 1 else MeanOf(members)
+
+
+def estimated_first(teacher: str, student: str, cfg: BenchmarkConfig) -> Policy:
+    """``teacher`` reading ``student``'s velocity estimate, then converted to the env's action
+    mapping as a whole (so the student's history sees the previous action in its own units)."""
+    from selfright.train.commands import load_checkpoint_actor
+
+    actor, _ = load_checkpoint_actor(Path(student))
+    raw = _make_policy(teacher, cfg)
+    own = (raw.action_mapping or ("stand",))[0]
+    if (actor.meta.action_reference or "stand") != own:
+        raise ValueError(f"--estimate-first {student} was trained around {actor.meta.action_reference!r}, the teacher around {own!r}")
+    return check_action_mapping(EstimatedVelocity(raw, actor), cfg.action, teacher, cfg.robot.name)
 
 
 def main(a: Args) -> None:
@@ -100,6 +119,7 @@ def main(a: Args) -> None:
     else:
         joined = " + ".join(a.policies)
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
+    name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -14,10 +14,13 @@ from tensordict import TensorDict
 
 from selfright.env.observations import privileged_columns
 from selfright.policies.actor import actor_from_checkpoint, export_onnx, load_actor_file, save_actor_file, teacher_checkpoint
+from selfright.policies.base import Policy
 from selfright.policies.learned import load_policy_file
+from selfright.policies.variants import EstimatedVelocity
 from selfright.train.checkpoints import latest_checkpoint
 from selfright.train.velocity_estimator import OPTIMIZER_KEY, EstimatorMLPModel, EstimatorTrainer
 
+from test_export import rsl_actor
 from test_learning_smoke import TINY, run, spec
 
 FRAMES = 3
@@ -119,3 +122,36 @@ def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path):
     with pytest.raises(ValueError, match="feed-forward students"):
         gru = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, student_gru=8))
         run(spec(tmp_path / "gru", role="student", teacher=teacher, train=gru))
+
+
+class _Recorder(Policy):
+    """Records the teacher observation it is given; acts with zeros."""
+
+    groups, action_mapping, digest, name = ("teacher",), ("tall", 0.5), "d", "recorder"
+
+    def reset(self, ids, seeds=None):
+        pass
+
+    def act(self, obs, ids, contexts):
+        self.seen = obs["teacher"].clone()
+        return torch.zeros(len(ids), 12)
+
+
+def test_teacher_reads_the_estimate_of_the_students_history():
+    actor = actor_from_checkpoint({"student_state_dict": model().eval().state_dict()}, {"obs_history": FRAMES})
+    inner = _Recorder()
+    policy = EstimatedVelocity(inner, actor)
+    assert set(policy.groups) == {"student", "teacher"} and policy.action_mapping == ("tall", 0.5)
+    frames = [rollout(2, seed=s) for s in range(FRAMES + 1)]
+    policy.reset(np.arange(2))
+    for obs in frames:
+        policy.act({"student": obs["student"], "teacher": obs["teacher"]}, np.arange(2), [None, None])
+    history = torch.cat([f["student"] for f in frames[1:]], dim=-1)  # the last FRAMES frames, oldest first
+    cols = privileged_columns(12)["velocity"]
+    with torch.no_grad():
+        torch.testing.assert_close(inner.seen[:, cols], actor.estimator(actor._normalize(history)), atol=1e-5, rtol=0)
+    rest = torch.ones(TEACHER, dtype=torch.bool)
+    rest[cols] = False
+    assert torch.equal(inner.seen[:, rest], frames[-1]["teacher"][:, rest])
+    with pytest.raises(ValueError, match="velocity estimator"):
+        EstimatedVelocity(inner, actor_from_checkpoint({"student_state_dict": rsl_actor(STUDENT, "student").state_dict()}))

@@ -164,6 +164,13 @@ class ActorMLP(nn.Module):
         x = _sequential_rows(self.mlp, x)
         return x if h is None else (x, h)
 
+    def estimate_rows(self, obs: torch.Tensor) -> torch.Tensor:
+        """(k, ESTIMATE_DIM) the velocity estimator's output for inputs ``obs`` (k, D), row by row
+        as ``forward_rows``; ``ValueError`` for an actor without an estimator."""
+        if self.estimator is None:
+            raise ValueError("this actor has no velocity estimator (train with --train.distillation.velocity-estimator)")
+        return _sequential_rows(self.estimator, self._normalize(obs))
+
     @staticmethod
     def _required(hidden: torch.Tensor | None) -> torch.Tensor:
         if hidden is None:

@@ -13,7 +13,9 @@ import numpy as np
 import torch
 
 from selfright.env.observations import privileged_columns
+from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
+from selfright.policies.history import ObsHistory
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
@@ -60,6 +62,35 @@ class Blinded(Policy):
         x = obs["teacher"].clone()
         for cols, value in self.blocks:
             x[:, cols] = value
+        return self.inner.act({**obs, "teacher": x}, ids, contexts)
+
+
+class EstimatedVelocity(Policy):
+    """``inner`` (a teacher) reading, instead of its true trunk velocity, the estimate of a
+    student's velocity estimator (``--train.distillation.velocity-estimator``) from the
+    student's own observation history: whether the estimate is good enough for what the
+    teacher does with the velocity. Both must share an action mapping (the student's previous
+    action is the teacher's)."""
+
+    def __init__(self, inner: Policy, student: ActorMLP, num_joints: int = 12):
+        if student.estimator is None:
+            raise ValueError("--estimate-first needs a student with a velocity estimator")
+        self.inner, self.student = inner, student
+        self.columns = privileged_columns(num_joints)["velocity"]
+        self.frames = ObsHistory(student.meta.obs_history, group_dim("student"))
+        self.groups = tuple(sorted(set(inner.groups) | {"student", "teacher"}))
+        self.action_mapping, self.digest = inner.action_mapping, inner.digest
+        self.name = f"{inner.name} reading {student.meta.source or 'a student'}'s velocity estimate"
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.frames.reset(ids)
+        self.inner.reset(ids, seeds)
+
+    @torch.no_grad()
+    def act(self, obs, ids, contexts):
+        history = self.frames.push(ids, obs["student"].float())
+        x = obs["teacher"].clone()
+        x[:, self.columns] = self.student.estimate_rows(history).to(x.dtype)
         return self.inner.act({**obs, "teacher": x}, ids, contexts)
 
 
