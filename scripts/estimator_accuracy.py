@@ -3,7 +3,13 @@ tracks the true body-frame velocity on its own rollouts in the training env (fal
 domain randomisation as in training; the student acts with its mean action): RMS error and
 R² per axis, and the spread of the true velocity.
 
+With ``--fit-histories H ...`` it also asks what the student's sensors allow: fresh estimators
+of the same network, each reading the last H student frames, are fitted offline to the same
+rollouts (three quarters of the envs) and scored on the rest, so a longer history or another
+network can be judged without training a student.
+
     python scripts/estimator_accuracy.py --checkpoint runs/incline_student_vel/model_299.pt --context incline
+    python scripts/estimator_accuracy.py --checkpoint runs/incline_student_vel/model_299.pt --fit-histories 1 5 25 50 100
 """
 
 from __future__ import annotations
@@ -37,6 +43,12 @@ class Args:
     """Control steps (50 Hz) of every env; episodes restart as in training."""
     seed: int = 7
     """Seed of the episodes."""
+    fit_histories: tuple[int, ...] = ()
+    """Frames of student observation history of estimators fitted offline to the rollouts."""
+    fit_dims: tuple[int, ...] = (256, 128)
+    """Hidden widths of those estimators."""
+    fit_epochs: int = 30
+    """Passes over the fitting envs' states."""
 
 
 def main(args: Args) -> None:
@@ -49,14 +61,18 @@ def main(args: Args) -> None:
     env = RecoveryVecEnv(bench, train, make_training_worlds(args.context, bench, args.seed), args.envs, seed=args.seed)
     group = "student_history" if actor.meta.obs_history > 1 else "student"
     cols = privileged_columns(env.num_actions)["velocity"]
-    est, true = [], []
+    est, true, frames, starts = [], [], [], []
+    fresh = torch.ones(args.envs, dtype=torch.bool)
     with torch.no_grad():
         for _ in tqdm(range(args.steps), desc="rollout"):
             obs = env.get_observations()
             x = obs[group]
             est.append(actor.estimate_rows(x))
             true.append(obs["teacher"][:, cols])
-            env.step(actor(x))
+            frames.append(obs["student"])
+            starts.append(fresh)
+            _, _, dones, _ = env.step(actor(x))
+            fresh = dones.bool().cpu()
     env.close()
     e, t = torch.cat(est), torch.cat(true)
     mse = (e - t).pow(2).mean(0)
@@ -65,6 +81,55 @@ def main(args: Args) -> None:
     for i, axis in enumerate("xyz"):
         print(f"  v_{axis}: true std {var[i].sqrt():.3f} m/s, RMS error {mse[i].sqrt():.3f} m/s, R² {1 - mse[i] / var[i]:.3f}")
     print(f"  all: mean squared error {mse.mean():.4f} (m/s)², R² {1 - mse.sum() / var.sum():.3f}")
+    if args.fit_histories:
+        print(f"estimators fitted offline ({'-'.join(map(str, args.fit_dims))} units, {args.fit_epochs} epochs), "
+              f"R² on held-out envs (x, y, z / all):")
+        f, v, st = torch.stack(frames), torch.stack(true), torch.stack(starts)  # (T, N, ...)
+        for h in args.fit_histories:
+            r2 = fit_offline(stacked(f, st, h), v, args.fit_dims, args.fit_epochs, args.seed)
+            print(f"  {h:4d} frames: " + ", ".join(f"{r:.3f}" for r in r2[:3]) + f" / {r2[3]:.3f}")
+
+
+def stacked(frames: torch.Tensor, starts: torch.Tensor, h: int) -> torch.Tensor:
+    """(T, N, h·F) the last ``h`` frames at every step, oldest first, an episode's first frame
+    repeated before it (``selfright.policies.history``'s rule)."""
+    t_len, n = starts.shape
+    begin = torch.zeros(t_len, n, dtype=torch.long)
+    for t in range(t_len):
+        begin[t] = torch.where(starts[t], torch.full((n,), t), begin[t - 1] if t else torch.zeros(n, dtype=torch.long))
+    steps = torch.arange(t_len)[:, None]
+    idx = [torch.maximum(steps - k, begin) for k in range(h - 1, -1, -1)]
+    env = torch.arange(n)[None, :]
+    return torch.cat([frames[i, env] for i in idx], dim=-1)
+
+
+def fit_offline(x: torch.Tensor, y: torch.Tensor, dims: tuple[int, ...], epochs: int, seed: int) -> list[float]:
+    """Fit an MLP ``x -> y`` on the first three quarters of the envs (axis 1), score R² per
+    output and overall on the rest."""
+    from torch import nn
+
+    split = 3 * x.shape[1] // 4
+    xtr, ytr = x[:, :split].flatten(0, 1), y[:, :split].flatten(0, 1)
+    xte, yte = x[:, split:].flatten(0, 1), y[:, split:].flatten(0, 1)
+    mean, std = xtr.mean(0), xtr.std(0) + 1e-2
+    g = torch.Generator().manual_seed(seed)
+    torch.manual_seed(seed)
+    widths = [x.shape[-1], *dims]
+    layers: list[nn.Module] = []
+    for a, b in zip(widths[:-1], widths[1:]):
+        layers += [nn.Linear(a, b), nn.ELU()]
+    net = nn.Sequential(*layers, nn.Linear(widths[-1], y.shape[-1]))
+    opt = torch.optim.Adam(net.parameters(), lr=1e-3)
+    for _ in range(epochs):
+        for batch in torch.randperm(len(xtr), generator=g).split(1024):
+            loss = nn.functional.mse_loss(net((xtr[batch] - mean) / std), ytr[batch])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+    with torch.no_grad():
+        err = (net((xte - mean) / std) - yte).pow(2).mean(0)
+    var = yte.var(0, unbiased=False)
+    return [*(1 - err / var).tolist(), float(1 - err.sum() / var.sum())]
 
 
 if __name__ == "__main__":

@@ -59,7 +59,7 @@ class Args:
     """Privileged blocks hidden from the first policy (a teacher): ``velocity`` (read as 0),
     ``friction`` (1.0), ``factors`` (1.0); ``selfright.policies.variants.Blinded``."""
     estimate_first: str | None = None
-    """A student checkpoint (or run folder) with a velocity estimator: the first policy (a
+    """A student policy file, checkpoint or run folder with a velocity estimator: the first policy (a
     teacher with the same action mapping) reads the estimate from the student's observation
     history instead of its true trunk velocity (``selfright.policies.variants.EstimatedVelocity``)."""
     feed_both: bool = False
@@ -96,9 +96,13 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
 def estimated_first(teacher: str, student: str, cfg: BenchmarkConfig) -> Policy:
     """``teacher`` reading ``student``'s velocity estimate, then converted to the env's action
     mapping as a whole (so the student's history sees the previous action in its own units)."""
+    from selfright.policies.actor import load_actor_file
     from selfright.train.commands import load_checkpoint_actor
 
-    actor, _ = load_checkpoint_actor(Path(student))
+    try:  # a policy file (selfright export), else a training checkpoint or run folder
+        actor = load_actor_file(student)
+    except (ValueError, OSError, RuntimeError):
+        actor, _ = load_checkpoint_actor(Path(student))
     raw = _make_policy(teacher, cfg)
     own = (raw.action_mapping or ("stand",))[0]
     if (actor.meta.action_reference or "stand") != own:

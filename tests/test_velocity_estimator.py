@@ -21,6 +21,7 @@ from selfright.train.checkpoints import latest_checkpoint
 from selfright.train.velocity_estimator import OPTIMIZER_KEY, EstimatorMLPModel, EstimatorTrainer
 
 from test_export import rsl_actor
+from test_scripts import run_script
 from test_learning_smoke import TINY, run, spec
 
 FRAMES = 3
@@ -103,7 +104,7 @@ def test_deployed_actor_matches_the_trained_model(tmp_path: Path):
         teacher_checkpoint(actor)
 
 
-def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path):
+def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path, monkeypatch, capsys):
     teacher = tmp_path / "teacher"
     run(spec(teacher))
     train = dataclasses.replace(TINY, distillation=dataclasses.replace(
@@ -119,6 +120,14 @@ def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path):
     assert r.start_it == 2
     resumed = torch.load(latest_checkpoint(student), weights_only=True)
     assert not torch.equal(resumed["student_state_dict"]["estimator.0.weight"], ckpt["student_state_dict"]["estimator.0.weight"])
+    # The diagnostics read it: its accuracy on its own rollouts, and a teacher reading its estimate.
+    run_script("estimator_accuracy.py", ["--checkpoint", str(student), "--context", "flat", "--envs", "4",
+                                         "--steps", "12", "--fit-histories", "1", "2", "--fit-epochs", "1"], monkeypatch)
+    out = capsys.readouterr().out
+    assert "48 states" in out and out.count("R²") == 5 and "   2 frames:" in out
+    run_script("policy_variants.py", ["--policies", str(teacher), "--estimate-first", str(student), "--grid", "tiny",
+                                      "--episodes", "1", "--out", str(tmp_path / "estimated")], monkeypatch)
+    assert "velocity estimate) on tiny" in capsys.readouterr().out
     with pytest.raises(ValueError, match="feed-forward students"):
         gru = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, student_gru=8))
         run(spec(tmp_path / "gru", role="student", teacher=teacher, train=gru))
