@@ -95,9 +95,15 @@ class EstimatorTrainer:
         self.epochs, self.minibatches = epochs, minibatches
         self.optimizer = torch.optim.Adam(model.estimator.parameters(), lr=learning_rate)
 
-    def fit(self, rollout: TensorDict) -> float:
-        """Train on ``rollout`` (steps, envs) of observation groups; returns the mean loss."""
+    def fit(self, rollout: TensorDict) -> tuple[float, float]:
+        """Train on ``rollout`` (steps, envs) of observation groups; returns the mean loss and
+        the share of the rollout's velocity variance it left unexplained before this fit
+        (1 − R² of the estimator as it acted)."""
         flat = rollout.flatten(0, 1)
+        with torch.no_grad():
+            target = self.model.target(flat)
+            residual = (self.model.estimate(flat) - target).pow(2).sum() / target.var(0, unbiased=False).sum().clamp_min(1e-12)
+            residual /= len(target)
         n = flat.batch_size[0]
         size = max(1, n // self.minibatches)
         total, count = 0.0, 0
@@ -110,13 +116,14 @@ class EstimatorTrainer:
                 loss.backward()
                 self.optimizer.step()
                 total, count = total + loss.item(), count + 1
-        return total / count
+        return total / count, float(residual)
 
 
 def attach_velocity_estimator(alg: Any, learning_rate: float, seed: int) -> EstimatorTrainer:
     """Make rsl_rl's ``Distillation`` ``alg`` fit its student's estimator on every rollout before
-    the behaviour-cloning update (logged as the ``velocity`` loss), and save / restore the
-    estimator's optimiser with the checkpoint."""
+    the behaviour-cloning update (logged as the ``velocity`` loss, (m/s)², and ``velocity_r2``, the
+    share of the rollout's velocity variance the estimator explained while the student acted), and
+    save / restore the estimator's optimiser with the checkpoint."""
     student = alg._raw_student
     if not isinstance(student, EstimatorMLPModel):
         raise TypeError("attach_velocity_estimator needs an EstimatorMLPModel student")
@@ -124,8 +131,8 @@ def attach_velocity_estimator(alg: Any, learning_rate: float, seed: int) -> Esti
     update, save, load = alg.update, alg.save, alg.load
 
     def update_with_estimator(*args: Any, **kwargs: Any) -> dict[str, float]:
-        loss = trainer.fit(alg.storage.observations)  # before update(): it clears the storage
-        return {**update(*args, **kwargs), "velocity": loss}
+        loss, residual = trainer.fit(alg.storage.observations)  # before update(): it clears the storage
+        return {**update(*args, **kwargs), "velocity": loss, "velocity_r2": 1.0 - residual}
 
     def save_with_estimator() -> dict:
         return {**save(), OPTIMIZER_KEY: trainer.optimizer.state_dict()}
