@@ -14,7 +14,6 @@ network can be judged without training a student.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +23,7 @@ from tqdm import tqdm
 
 from selfright.config import ActionConfig, BenchmarkConfig
 from selfright.env.observations import privileged_columns
+from selfright.policies.actor import mlp_layers
 from selfright.train.checkpoints import read_meta
 from selfright.train.commands import load_checkpoint_actor
 from selfright.train.config import DistillationConfig, TrainConfig
@@ -114,11 +114,7 @@ def fit_offline(x: torch.Tensor, y: torch.Tensor, dims: tuple[int, ...], epochs:
     mean, std = xtr.mean(0), xtr.std(0) + 1e-2
     g = torch.Generator().manual_seed(seed)
     torch.manual_seed(seed)
-    widths = [x.shape[-1], *dims]
-    layers: list[nn.Module] = []
-    for a, b in zip(widths[:-1], widths[1:]):
-        layers += [nn.Linear(a, b), nn.ELU()]
-    net = nn.Sequential(*layers, nn.Linear(widths[-1], y.shape[-1]))
+    net = mlp_layers(x.shape[-1], dims, y.shape[-1], "elu")
     opt = torch.optim.Adam(net.parameters(), lr=1e-3)
     for _ in range(epochs):
         for batch in torch.randperm(len(xtr), generator=g).split(1024):

@@ -127,9 +127,9 @@ class ActorMLP(nn.Module):
         self.register_buffer("obs_mean", torch.zeros(meta.obs_dim))
         self.register_buffer("obs_std", torch.ones(meta.obs_dim))
         self.gru = nn.GRU(meta.obs_dim, meta.gru_dim) if meta.gru_dim > 0 else None
-        self.estimator = _mlp(meta.obs_dim, meta.estimator_dims, ESTIMATE_DIM, meta.activation) if meta.estimator_dims else None
-        width = meta.gru_dim or meta.obs_dim + (ESTIMATE_DIM if meta.estimator_dims else 0)
-        self.mlp = _mlp(width, meta.hidden_dims, meta.action_dim, meta.activation)
+        self.estimator = mlp_layers(meta.obs_dim, meta.estimator_dims, ESTIMATE_DIM, meta.activation) if meta.estimator_dims else None
+        width = meta.gru_dim or (meta.obs_dim + (ESTIMATE_DIM if meta.estimator_dims else 0))
+        self.mlp = mlp_layers(width, meta.hidden_dims, meta.action_dim, meta.activation)
 
     @property
     def recurrent(self) -> bool:
@@ -204,7 +204,7 @@ ELEMENTWISE_GRAIN = 32768
 across threads at positions that need not fall on row boundaries."""
 
 
-def _mlp(width: int, hidden: tuple[int, ...], out: int, activation: str) -> nn.Sequential:
+def mlp_layers(width: int, hidden: tuple[int, ...], out: int, activation: str) -> nn.Sequential:
     """Linear layers ``width -> hidden... -> out`` with ``activation`` between (rsl_rl ``MLP``'s layout)."""
     dims = [width, *hidden]
     layers: list[nn.Module] = []

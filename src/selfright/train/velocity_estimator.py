@@ -102,8 +102,8 @@ class EstimatorTrainer:
         flat = rollout.flatten(0, 1)
         with torch.no_grad():
             target = self.model.target(flat)
-            residual = (self.model.estimate(flat) - target).pow(2).sum() / target.var(0, unbiased=False).sum().clamp_min(1e-12)
-            residual /= len(target)
+            error = (self.model.estimate(flat) - target).pow(2).sum(-1).mean()
+            residual = error / target.var(0, unbiased=False).sum().clamp_min(1e-12)
         n = flat.batch_size[0]
         size = max(1, n // self.minibatches)
         total, count = 0.0, 0
