@@ -1,7 +1,10 @@
 """How well a student's trunk-velocity estimator (``--train.distillation.velocity-estimator``)
 tracks the true body-frame velocity on its own rollouts in the training env (falls, settling,
 domain randomisation as in training; the student acts with its mean action): RMS error and
-R² per axis, and the spread of the true velocity.
+R² per axis, and the spread of the true velocity. Any student (one without an estimator too)
+also gets a linear probe: how much of the velocity a least-squares fit reads off its last
+hidden layer (fitted on three quarters of the envs, scored on the rest), i.e. how much of it
+the network represents on its own.
 
 With ``--fit-histories H ...`` it also asks what the student's sensors allow: fresh estimators
 of the same network, each reading the last H student frames, are fitted offline to the same
@@ -10,6 +13,7 @@ network can be judged without training a student.
 
     python scripts/estimator_accuracy.py --checkpoint runs/incline_student_vel/model_299.pt --context incline
     python scripts/estimator_accuracy.py --checkpoint runs/incline_student_vel/model_299.pt --fit-histories 1 5 25 50 100
+    python scripts/estimator_accuracy.py --checkpoint runs/incline_student_tilt45_big/model_299.pt   # probe only
 """
 
 from __future__ import annotations
@@ -34,7 +38,7 @@ from selfright.train.vecenv import RecoveryVecEnv
 @dataclass(frozen=True)
 class Args:
     checkpoint: Path
-    """A distillation checkpoint (or run folder) of a student with a velocity estimator."""
+    """A distillation checkpoint (or run folder) of a student, with or without a velocity estimator."""
     context: str = "incline"
     """Training context to roll out in."""
     envs: int = 64
@@ -53,34 +57,45 @@ class Args:
 
 def main(args: Args) -> None:
     actor, ckpt = load_checkpoint_actor(args.checkpoint)
-    if actor.estimator is None:
-        raise SystemExit(f"estimator_accuracy: {ckpt} has no velocity estimator (train with --train.distillation.velocity-estimator)")
+    if actor.recurrent:
+        raise SystemExit(f"estimator_accuracy: {ckpt} is a recurrent student; it reads feed-forward ones")
     pol = read_meta(ckpt.parent).get("policy") or {}
     bench = BenchmarkConfig(action=ActionConfig(reference=pol.get("action_reference", "stand")))
     train = TrainConfig(distillation=DistillationConfig(student_history=actor.meta.obs_history))
     env = RecoveryVecEnv(bench, train, make_training_worlds(args.context, bench, args.seed), args.envs, seed=args.seed)
     group = "student_history" if actor.meta.obs_history > 1 else "student"
     cols = privileged_columns(env.num_actions)["velocity"]
-    est, true, frames, starts = [], [], [], []
+    est, hidden, true, frames, starts = [], [], [], [], []
+    last_hidden = actor.mlp[:-1]
     fresh = torch.ones(args.envs, dtype=torch.bool)
     with torch.no_grad():
         for _ in tqdm(range(args.steps), desc="rollout"):
             obs = env.get_observations()
             x = obs[group]
-            est.append(actor.estimate_rows(x))
+            z = actor._normalize(x)
+            if actor.estimator is not None:
+                est.append(actor.estimate_rows(x))
+                z = torch.cat([z, est[-1]], dim=-1)
+            hidden.append(last_hidden(z))
             true.append(obs["teacher"][:, cols])
             frames.append(obs["student"])
             starts.append(fresh)
             _, _, dones, _ = env.step(actor(x))
             fresh = dones.bool().cpu()
     env.close()
-    e, t = torch.cat(est), torch.cat(true)
-    mse = (e - t).pow(2).mean(0)
+    t = torch.cat(true)
     var = t.var(0, unbiased=False)
     print(f"{len(t):,} states of {ckpt} on {args.context} (seed {args.seed})")
-    for i, axis in enumerate("xyz"):
-        print(f"  v_{axis}: true std {var[i].sqrt():.3f} m/s, RMS error {mse[i].sqrt():.3f} m/s, R² {1 - mse[i] / var[i]:.3f}")
-    print(f"  all: mean squared error {mse.mean():.4f} (m/s)², R² {1 - mse.sum() / var.sum():.3f}")
+    if est:
+        mse = (torch.cat(est) - t).pow(2).mean(0)
+        for i, axis in enumerate("xyz"):
+            print(f"  v_{axis}: true std {var[i].sqrt():.3f} m/s, RMS error {mse[i].sqrt():.3f} m/s, R² {1 - mse[i] / var[i]:.3f}")
+        print(f"  all: mean squared error {mse.mean():.4f} (m/s)², R² {1 - mse.sum() / var.sum():.3f}")
+    else:
+        print("  (no velocity estimator)")
+    r2 = linear_probe(torch.stack(hidden), torch.stack(true))
+    print(f"linear probe of the last hidden layer ({hidden[0].shape[-1]} units), R² on held-out envs (x, y, z / all): "
+          + ", ".join(f"{r:.3f}" for r in r2[:3]) + f" / {r2[3]:.3f}")
     if args.fit_histories:
         print(f"estimators fitted offline ({'-'.join(map(str, args.fit_dims))} units, {args.fit_epochs} epochs), "
               f"R² on held-out envs (x, y, z / all):")
@@ -103,14 +118,33 @@ def stacked(frames: torch.Tensor, starts: torch.Tensor, h: int) -> torch.Tensor:
     return torch.cat([frames[i, env] for i in idx], dim=-1)
 
 
+def held_out_r2(pred: torch.Tensor, y: torch.Tensor) -> list[float]:
+    """R² of ``pred`` against ``y`` (k, 3) per output, then overall."""
+    err = (pred - y).pow(2).mean(0)
+    var = y.var(0, unbiased=False)
+    return [*(1 - err / var).tolist(), float(1 - err.sum() / var.sum())]
+
+
+def split_envs(x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(T, N, ...) -> the first three quarters of the envs' samples, and the rest's."""
+    split = 3 * x.shape[1] // 4
+    return x[:, :split].flatten(0, 1), x[:, split:].flatten(0, 1)
+
+
+def linear_probe(h: torch.Tensor, y: torch.Tensor) -> list[float]:
+    """Least-squares fit ``y ≈ [h, 1] W`` on the fitting envs, R² on the held-out ones."""
+    (htr, hte), (ytr, yte) = split_envs(h), split_envs(y)
+    ones = lambda a: torch.cat([a, torch.ones(len(a), 1)], dim=-1)  # noqa: E731
+    w = torch.linalg.lstsq(ones(htr).double(), ytr.double()).solution
+    return held_out_r2((ones(hte).double() @ w).float(), yte)
+
+
 def fit_offline(x: torch.Tensor, y: torch.Tensor, dims: tuple[int, ...], epochs: int, seed: int) -> list[float]:
     """Fit an MLP ``x -> y`` on the first three quarters of the envs (axis 1), score R² per
     output and overall on the rest."""
     from torch import nn
 
-    split = 3 * x.shape[1] // 4
-    xtr, ytr = x[:, :split].flatten(0, 1), y[:, :split].flatten(0, 1)
-    xte, yte = x[:, split:].flatten(0, 1), y[:, split:].flatten(0, 1)
+    (xtr, xte), (ytr, yte) = split_envs(x), split_envs(y)
     mean, std = xtr.mean(0), xtr.std(0) + 1e-2
     g = torch.Generator().manual_seed(seed)
     torch.manual_seed(seed)
@@ -123,9 +157,7 @@ def fit_offline(x: torch.Tensor, y: torch.Tensor, dims: tuple[int, ...], epochs:
             loss.backward()
             opt.step()
     with torch.no_grad():
-        err = (net((xte - mean) / std) - yte).pow(2).mean(0)
-    var = yte.var(0, unbiased=False)
-    return [*(1 - err / var).tolist(), float(1 - err.sum() / var.sum())]
+        return held_out_r2(net((xte - mean) / std), yte)
 
 
 if __name__ == "__main__":

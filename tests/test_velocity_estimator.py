@@ -125,7 +125,7 @@ def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path, monk
     run_script("estimator_accuracy.py", ["--checkpoint", str(student), "--context", "flat", "--envs", "4",
                                          "--steps", "12", "--fit-histories", "1", "2", "--fit-epochs", "1"], monkeypatch)
     out = capsys.readouterr().out
-    assert "48 states" in out and out.count("R²") == 5 and "   2 frames:" in out
+    assert "48 states" in out and out.count("R²") == 6 and "linear probe" in out and "   2 frames:" in out
     run_script("policy_variants.py", ["--policies", str(teacher), "--estimate-first", str(student), "--grid", "tiny",
                                       "--episodes", "1", "--out", str(tmp_path / "estimated")], monkeypatch)
     assert "velocity estimate) on tiny" in capsys.readouterr().out
