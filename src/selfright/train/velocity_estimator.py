@@ -32,6 +32,7 @@ from tensordict import TensorDict
 
 from selfright.env.observations import privileged_columns
 from selfright.policies.actor import ESTIMATE_DIM
+
 TARGET_GROUP = "teacher"
 """Observation group the regression target is read from (never an input of the student)."""
 OPTIMIZER_KEY = "velocity_estimator_optimizer_state_dict"
@@ -97,13 +98,13 @@ class EstimatorTrainer:
 
     def fit(self, rollout: TensorDict) -> tuple[float, float]:
         """Train on ``rollout`` (steps, envs) of observation groups; returns the mean loss and
-        the share of the rollout's velocity variance it left unexplained before this fit
-        (1 − R² of the estimator as it acted)."""
+        the share of the rollout's velocity variance the estimator explained before this fit
+        (its R² as it acted)."""
         flat = rollout.flatten(0, 1)
         with torch.no_grad():
             target = self.model.target(flat)
             error = (self.model.estimate(flat) - target).pow(2).sum(-1).mean()
-            residual = error / target.var(0, unbiased=False).sum().clamp_min(1e-12)
+            r2 = 1.0 - error / target.var(0, unbiased=False).sum().clamp_min(1e-12)
         n = flat.batch_size[0]
         size = max(1, n // self.minibatches)
         total, count = 0.0, 0
@@ -116,7 +117,7 @@ class EstimatorTrainer:
                 loss.backward()
                 self.optimizer.step()
                 total, count = total + loss.item(), count + 1
-        return total / count, float(residual)
+        return total / count, float(r2)
 
 
 def attach_velocity_estimator(alg: Any, learning_rate: float, seed: int) -> EstimatorTrainer:
@@ -131,8 +132,8 @@ def attach_velocity_estimator(alg: Any, learning_rate: float, seed: int) -> Esti
     update, save, load = alg.update, alg.save, alg.load
 
     def update_with_estimator(*args: Any, **kwargs: Any) -> dict[str, float]:
-        loss, residual = trainer.fit(alg.storage.observations)  # before update(): it clears the storage
-        return {**update(*args, **kwargs), "velocity": loss, "velocity_r2": 1.0 - residual}
+        loss, r2 = trainer.fit(alg.storage.observations)  # before update(): it clears the storage
+        return {**update(*args, **kwargs), "velocity": loss, "velocity_r2": r2}
 
     def save_with_estimator() -> dict:
         return {**save(), OPTIMIZER_KEY: trainer.optimizer.state_dict()}
