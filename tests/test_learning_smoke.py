@@ -248,6 +248,11 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert line.startswith("**not** the seed's Table I") and "goal-set term weight 8.0" in line
     assert "torques 0.002 (Table I: 0.001)" in line
     assert reward_summary({"role": "teacher"}).startswith("unknown")
+    ended = {"reward": {**table, "target_height_m": 0.37}, "episode": {"terminate_low_stance_s": 1.0}}
+    assert reward_summary({"role": "teacher", "train_config": ended}) == (
+        "the seed's Table I exactly (z* = 0.37 m); training episodes ended as terminal after 1.0 s upright on four"
+        " feet under the goal bar (not in the seed)"
+    )
 
 
 def test_card_record_reads_back_what_a_card_states():

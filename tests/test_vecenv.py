@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -124,6 +125,43 @@ def test_success_ends_the_episode_only_when_asked(flat_worlds, monkeypatch, on, 
         _, _, dones, extras = env.step(torch.zeros(2, 12))
     assert dones.tolist() == [on, False]
     assert extras["time_outs"].tolist() == [on and as_timeout, False]
+    env.close()
+
+
+def test_low_stance_streak_ends_only_an_unbroken_crouch(flat_worlds):
+    """``terminate_low_stance_s``: an episode ends once the robot has stood upright on four feet
+    under the goal bar for that long without a break; a stance above the bar, a foot off or a
+    tilted trunk resets the count."""
+    ep = EpisodeConfig(terminate_low_stance_s=3 * CFG.sim.control_dt_s)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=4, seed=1)
+    bar = env.goal_bar_m
+    feet = torch.ones(4, 4, dtype=torch.bool)
+    feet[2, 0] = False  # slot 2: a foot off
+    tilted = torch.tensor([0.0, 0.0, 0.0, 0.7])  # slot 3: 40° of roll
+
+    def state(h0: float):
+        heights = torch.tensor([h0, bar + 0.03, bar - 0.02, bar - 0.02])
+        return SimpleNamespace(roll=tilted, pitch=torch.zeros(4), feet_contact=feet, height=heights)
+
+    ended = [env._low_stance_ended(state(h)).tolist() for h in (bar - 0.02, bar - 0.02, bar + 0.01, bar - 0.02, bar - 0.02)]
+    assert ended == [[False] * 4] * 5  # the third step, above the bar, broke slot 0's streak
+    assert env._low_stance_ended(state(bar - 0.02)).tolist() == [True, False, False, False]
+    env.close()
+    off = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=4, seed=1)
+    assert not off._low_stance_ended(state(bar - 0.02)).any()
+    off.close()
+
+
+def test_low_stance_end_is_terminal(flat_worlds, monkeypatch):
+    """The low-stance end is a terminal state (no bootstrapped value), logged per episode."""
+    ep = EpisodeConfig(terminate_low_stance_s=1.0)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=1)
+    monkeypatch.setattr(env, "_low_stance_ended", lambda state: torch.tensor([True, False]))
+    with torch.inference_mode():
+        _, _, dones, extras = env.step(torch.zeros(2, 12))
+    assert dones.tolist() == [True, False]
+    assert extras["time_outs"].tolist() == [False, False]
+    assert float(extras["log"]["Episode/low_stance_end_rate"]) == 1.0
     env.close()
 
 

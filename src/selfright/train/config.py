@@ -53,6 +53,14 @@ class EpisodeConfig:
     stops where the benchmark stops scoring it, and the steps after the hold no longer train
     the policy (on them Table I's feet term pulls every run into a crouch under the goal
     bar: docs/training.md)."""
+    terminate_low_stance_s: float = 0.0
+    """End the episode as a terminal state (value 0) once the robot has stood upright on four
+    feet with its trunk under the goal bar for this long without a break (s); 0 = off. The
+    reward stays Table I term for term, but a terminal end forfeits the ~10 per second Table I
+    pays a robot standing on four feet, so a crouch under the bar (where every Table I run
+    drifts: docs/training.md) is no longer worth as much as a stance above it. Like the
+    goal-set term, this brings the goal bar into training, so model cards flag it. A robot
+    passing through a crouch on its way up is spared by the grace time."""
     replay_failed: float = 0.0
     """Share of new training episodes that replay the start of a recent failed one (the same
     fall-protocol draw on the same tile: position, orientation, joints; fresh randomisation

@@ -194,9 +194,13 @@ def reward_summary(meta: dict[str, Any]) -> str:
     ]
     if reward.get("goal_set"):
         changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
+    low = ((source.get("train_config") or {}).get("episode") or {}).get("terminate_low_stance_s")
+    rule = ""
+    if low:
+        rule = f"; training episodes ended as terminal after {low} s upright on four feet under the goal bar (not in the seed)"
     if not changed:
-        return f"{TABLE_I_WORDS} (z* = {z_txt})"
-    return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt})"
+        return f"{TABLE_I_WORDS} (z* = {z_txt}){rule}"
+    return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt}){rule}"
 
 
 def card_record(card_text: str) -> dict[str, Any]:

@@ -36,6 +36,7 @@ from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
+from selfright.env.goal import goal_height_m
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
@@ -46,6 +47,7 @@ from selfright.train.config import TrainConfig, student_group
 from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
 
 if TYPE_CHECKING:
+    from selfright.env.robot_state import RobotState
     from selfright.train.upright_override import UprightOverride
 
 
@@ -102,6 +104,11 @@ class RecoveryVecEnv(VecEnv):
         self.window = max(1, int(round(ep.curriculum_window_s / self.dt)))
         self.tail_goal_steps = torch.zeros(num_envs, dtype=torch.long)
         """In-goal control steps within the final ``window`` steps of the current episode."""
+        self.low_stance_steps = int(round(ep.terminate_low_stance_s / self.dt))
+        """Control steps of unbroken low stance that end an episode (0 = never)."""
+        self.low_streak = torch.zeros(num_envs, dtype=torch.long)
+        """Current unbroken run of control steps upright on four feet under the goal bar."""
+        self.goal_bar_m = goal_height_m(cfg.goal, robot.leg_length_m)
         self.replay_share = ep.replay_failed
         self.restart_share = ep.restart_stuck
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
@@ -261,6 +268,7 @@ class RecoveryVecEnv(VecEnv):
             self.slot_start[i] = draw.origins[j]
         self.episode_length_buf[t] = 0
         self.tail_goal_steps[t] = 0
+        self.low_streak[t] = 0
         if self.student_frames is not None:
             self.student_frames.reset(ids)
         self.replayed[t] = torch.from_numpy(draw.replayed)
@@ -316,6 +324,8 @@ class RecoveryVecEnv(VecEnv):
         succeeded = out.succeeded if ep.terminate_on_success else torch.zeros_like(out.succeeded)
         if not ep.success_is_timeout:
             terminated |= succeeded
+        low_stance = self._low_stance_ended(out.state)
+        terminated |= low_stance
         time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile | succeeded) & ~terminated
         dones = terminated | time_out
 
@@ -333,6 +343,8 @@ class RecoveryVecEnv(VecEnv):
             log["Episode/success_rate"] = self.ever_succeeded[done_ids].float().mean()
             log["Episode/failure_rate"] = out.failed[done_ids].float().mean()
             log["Episode/left_tile_rate"] = left_tile[done_ids].float().mean()
+            if self.low_stance_steps > 0:
+                log["Episode/low_stance_end_rate"] = low_stance[done_ids].float().mean()
             log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
             if self.curriculum:
                 self._update_levels(done_ids, in_goal, left_tile[done_ids])
@@ -352,6 +364,17 @@ class RecoveryVecEnv(VecEnv):
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
+
+    def _low_stance_ended(self, state: RobotState) -> torch.Tensor:
+        """(n,) bool: the robot has now stood upright on four feet under the goal bar for
+        ``EpisodeConfig.terminate_low_stance_s`` without a break (all False when off)."""
+        if self.low_stance_steps <= 0:
+            return torch.zeros(self.num_envs, dtype=torch.bool)
+        tilt = math.radians(self.env.cfg.goal.max_tilt_deg)
+        upright = (state.roll.abs() <= tilt) & (state.pitch.abs() <= tilt)
+        low = upright & state.feet_contact.all(dim=-1) & (state.height < self.goal_bar_m)
+        self.low_streak = torch.where(low, self.low_streak + 1, torch.zeros_like(self.low_streak))
+        return self.low_streak >= self.low_stance_steps
 
     def _keep_failed_starts(self, ids: torch.Tensor, in_goal: torch.Tensor, diverged: torch.Tensor) -> None:
         """Queue the starts of finished episodes that did not end in the goal set (``in_goal``,
