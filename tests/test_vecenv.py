@@ -143,20 +143,45 @@ def test_low_stance_streak_ends_only_an_unbroken_crouch(flat_worlds):
         heights = torch.tensor([h0, bar + 0.03, bar - 0.02, bar - 0.02])
         return SimpleNamespace(roll=tilted, pitch=torch.zeros(4), feet_contact=feet, height=heights)
 
-    ended = [env._low_stance_ended(state(h)).tolist() for h in (bar - 0.02, bar - 0.02, bar + 0.01, bar - 0.02, bar - 0.02)]
+    out = torch.zeros(4, dtype=torch.bool)
+    ended = [env._low_stance_ended(state(h), out).tolist() for h in (bar - 0.02, bar - 0.02, bar + 0.01, bar - 0.02, bar - 0.02)]
     assert ended == [[False] * 4] * 5  # the third step, above the bar, broke slot 0's streak
-    assert env._low_stance_ended(state(bar - 0.02)).tolist() == [True, False, False, False]
+    assert env._low_stance_ended(state(bar - 0.02), out).tolist() == [True, False, False, False]
     env.close()
     off = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=4, seed=1)
-    assert not off._low_stance_ended(state(bar - 0.02)).any()
+    assert not off._low_stance_ended(state(bar - 0.02), out).any()
     off.close()
+
+
+def test_leaky_low_stance_count_outlasts_a_lifted_foot(flat_worlds):
+    """``low_stance_leaky``: three feet count, a step off the stance takes one off the count
+    (a robot creeping with a foot up now and then is still ended), the goal set clears it."""
+    ep = EpisodeConfig(terminate_low_stance_s=4 * CFG.sim.control_dt_s, low_stance_leaky=True)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=3, seed=1)
+    bar = env.goal_bar_m
+    zero = torch.zeros(3)
+
+    def step(heights, feet_down, in_goal=(False, False, False)):
+        feet = torch.zeros(3, 4, dtype=torch.bool)
+        for i, k in enumerate(feet_down):
+            feet[i, :k] = True
+        st = SimpleNamespace(roll=zero, pitch=zero, feet_contact=feet, height=torch.tensor(heights))
+        return env._low_stance_ended(st, torch.tensor(in_goal)).tolist()
+
+    low = bar - 0.02
+    assert step([low, low, low], [4, 3, 4]) == [False] * 3
+    assert step([low, low, low], [4, 2, 4]) == [False] * 3  # slot 1: two feet, one off its count
+    assert step([low, low, bar + 0.01], [4, 3, 4], in_goal=(False, False, True)) == [False] * 3  # slot 2 in goal: cleared
+    assert step([low, low, low], [4, 3, 4]) == [True, False, False]
+    assert env.low_streak.tolist() == [4, 2, 1]
+    env.close()
 
 
 def test_low_stance_end_is_terminal(flat_worlds, monkeypatch):
     """The low-stance end is a terminal state (no bootstrapped value), logged per episode."""
     ep = EpisodeConfig(terminate_low_stance_s=1.0)
     env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=1)
-    monkeypatch.setattr(env, "_low_stance_ended", lambda state: torch.tensor([True, False]))
+    monkeypatch.setattr(env, "_low_stance_ended", lambda state, in_goal: torch.tensor([True, False]))
     with torch.inference_mode():
         _, _, dones, extras = env.step(torch.zeros(2, 12))
     assert dones.tolist() == [True, False]

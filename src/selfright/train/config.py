@@ -61,6 +61,11 @@ class EpisodeConfig:
     drifts: docs/training.md) is no longer worth as much as a stance above it. Like the
     goal-set term, this brings the goal bar into training, so model cards flag it. A robot
     passing through a crouch on its way up is spared by the grace time."""
+    low_stance_leaky: bool = False
+    """With ``terminate_low_stance_s``: count a stance on three or four feet under the bar, let
+    other steps outside the goal set only take one step off the count, and clear it in the
+    goal set. Off, a single step with a foot lifted or above the bar clears the count, which a
+    robot creeping downhill on the incline does all the time (docs/training.md)."""
     replay_failed: float = 0.0
     """Share of new training episodes that replay the start of a recent failed one (the same
     fall-protocol draw on the same tile: position, orientation, joints; fresh randomisation

@@ -324,7 +324,7 @@ class RecoveryVecEnv(VecEnv):
         succeeded = out.succeeded if ep.terminate_on_success else torch.zeros_like(out.succeeded)
         if not ep.success_is_timeout:
             terminated |= succeeded
-        low_stance = self._low_stance_ended(out.state)
+        low_stance = self._low_stance_ended(out.state, out.in_goal)
         terminated |= low_stance
         time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile | succeeded) & ~terminated
         dones = terminated | time_out
@@ -365,15 +365,21 @@ class RecoveryVecEnv(VecEnv):
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
 
-    def _low_stance_ended(self, state: RobotState) -> torch.Tensor:
+    def _low_stance_ended(self, state: RobotState, in_goal: torch.Tensor) -> torch.Tensor:
         """(n,) bool: the robot has now stood upright on four feet under the goal bar for
-        ``EpisodeConfig.terminate_low_stance_s`` without a break (all False when off)."""
+        ``EpisodeConfig.terminate_low_stance_s`` without a break (all False when off). With
+        ``low_stance_leaky`` three feet count too, and a step that is neither such a stance nor
+        in the goal set (``in_goal``, (n,)) takes one step off the count instead of clearing it."""
         if self.low_stance_steps <= 0:
             return torch.zeros(self.num_envs, dtype=torch.bool)
         tilt = math.radians(self.env.cfg.goal.max_tilt_deg)
         upright = (state.roll.abs() <= tilt) & (state.pitch.abs() <= tilt)
-        low = upright & state.feet_contact.all(dim=-1) & (state.height < self.goal_bar_m)
-        self.low_streak = torch.where(low, self.low_streak + 1, torch.zeros_like(self.low_streak))
+        leaky = self.train_cfg.episode.low_stance_leaky
+        feet = state.feet_contact.sum(dim=-1) >= (3 if leaky else 4)
+        low = upright & feet & (state.height < self.goal_bar_m)
+        other = (self.low_streak - 1).clamp(min=0) if leaky else torch.zeros_like(self.low_streak)
+        streak = torch.where(low, self.low_streak + 1, other)
+        self.low_streak = torch.where(in_goal, torch.zeros_like(streak), streak)
         return self.low_streak >= self.low_stance_steps
 
     def _keep_failed_starts(self, ids: torch.Tensor, in_goal: torch.Tensor, diverged: torch.Tensor) -> None:
