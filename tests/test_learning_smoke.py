@@ -253,6 +253,8 @@ def test_model_card_reward_line_flags_anything_but_table_i():
         "the seed's Table I exactly (z* = 0.37 m); training episodes ended as terminal after 1.0 s upright on four"
         " feet under the goal bar (not in the seed)"
     )
+    ended["episode"]["low_stance_leaky"] = True
+    assert "upright on three or four feet (a leaky count) under the goal bar" in reward_summary({"role": "teacher", "train_config": ended})
 
 
 def test_card_record_reads_back_what_a_card_states():

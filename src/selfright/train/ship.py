@@ -194,10 +194,12 @@ def reward_summary(meta: dict[str, Any]) -> str:
     ]
     if reward.get("goal_set"):
         changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
-    low = ((source.get("train_config") or {}).get("episode") or {}).get("terminate_low_stance_s")
+    episode = (source.get("train_config") or {}).get("episode") or {}
+    low = episode.get("terminate_low_stance_s")
     rule = ""
     if low:
-        rule = f"; training episodes ended as terminal after {low} s upright on four feet under the goal bar (not in the seed)"
+        stance = "three or four feet (a leaky count)" if episode.get("low_stance_leaky") else "four feet"
+        rule = f"; training episodes ended as terminal after {low} s upright on {stance} under the goal bar (not in the seed)"
     if not changed:
         return f"{TABLE_I_WORDS} (z* = {z_txt}){rule}"
     return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt}){rule}"
