@@ -5,8 +5,8 @@
 #   bash scripts/train_policies.sh context-teachers  # rough teacher fine-tuned from it; the flat escape specialist
 #                                                    # (it, with large noise, from its stall postures) and the rough one
 #                                                    # (the flat one, on rough ground); a `tall`-reference
-#                                                    # flat teacher from scratch, the incline teacher from that, and its
-#                                                    # escape specialist
+#                                                    # flat teacher from scratch, the incline teachers from that (the
+#                                                    # shipped one ends episodes in a crouch), the escape specialist
 #   bash scripts/train_policies.sh students          # distil the three sensor-only students
 #   bash scripts/train_policies.sh ship              # evaluate (64 episodes, seed 0) and ship all six
 #
@@ -79,18 +79,26 @@ case $stage in
       # Action 0 = the taller standing pose; its iteration 1271 (92.2 % validation) starts the incline teacher.
       run runs/flat_teacher_tall --role teacher --context flat --physics-threads 1 --iterations 1272 \
         --action-reference tall --train.reward.target-height-m 0.37 $(has_ckpt runs/flat_teacher_tall && echo --resume)
-      resume_or_start runs/incline_teacher --init-from runs/flat_teacher_tall/model_1271.pt -- --role teacher \
+      # The escape specialist's starting point: the incline teacher shipped until the seventeenth
+      # session (Table I, episodes not ended in a crouch), iteration 422.
+      resume_or_start runs/incline_teacher_plain --init-from runs/flat_teacher_tall/model_1271.pt -- --role teacher \
         --context incline --physics-threads 1 --iterations 423 --action-reference tall --train.ppo.desired-kl 0.005 \
         --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 --train.episode.curriculum
       # Its escape specialist on the 20 deg slope, as the flat one; iteration 646 labels the incline student.
       if ! has_ckpt runs/incline_escape; then
-        mkdir -p runs/incline_escape_init && cp runs/incline_teacher/train_meta.json runs/incline_escape_init/
-        python -c "import torch; c = torch.load('runs/incline_teacher/model_422.pt', weights_only=False); c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, 'runs/incline_escape_init/model_422.pt')"
+        mkdir -p runs/incline_escape_init && cp runs/incline_teacher_plain/train_meta.json runs/incline_escape_init/
+        python -c "import torch; c = torch.load('runs/incline_teacher_plain/model_422.pt', weights_only=False); c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, 'runs/incline_escape_init/model_422.pt')"
       fi
       resume_or_start runs/incline_escape --init-from runs/incline_escape_init/model_422.pt -- --role teacher \
         --context incline --physics-threads 1 --iterations 647 --action-reference tall --train.ppo.learning-rate 1.5e-5 \
         --train.ppo.entropy-coef 0.01 --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 \
         --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
+      # The shipped incline teacher (seventeenth session): the same fine-tune with its episodes ended
+      # as terminal after 1 s crouched under the goal bar (a leaky count); iteration 1429 ships.
+      resume_or_start runs/incline_teacher --init-from runs/flat_teacher_tall/model_1271.pt -- --role teacher \
+        --context incline --physics-threads 1 --iterations 1430 --action-reference tall --train.ppo.desired-kl 0.005 \
+        --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 --train.episode.curriculum \
+        --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky
     ) &
     wait
     ;;
