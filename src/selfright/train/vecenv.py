@@ -105,9 +105,10 @@ class RecoveryVecEnv(VecEnv):
         self.tail_goal_steps = torch.zeros(num_envs, dtype=torch.long)
         """In-goal control steps within the final ``window`` steps of the current episode."""
         self.low_stance_steps = int(round(ep.terminate_low_stance_s / self.dt))
-        """Control steps of unbroken low stance that end an episode (0 = never)."""
+        """Control steps of low stance that end an episode (``terminate_low_stance_s``; 0 = never)."""
         self.low_streak = torch.zeros(num_envs, dtype=torch.long)
-        """Current unbroken run of control steps upright on four feet under the goal bar."""
+        """Control steps each slot has stood upright on four feet under the goal bar without a
+        break (with ``low_stance_leaky``: the leaky count of ``_low_stance_ended``)."""
         self.goal_bar_m = goal_height_m(cfg.goal, robot.leg_length_m)
         self.replay_share = ep.replay_failed
         self.restart_share = ep.restart_stuck
