@@ -18,7 +18,6 @@ episodes that leave the 8 m tile get up further down the slope?
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 
 import mujoco
@@ -26,7 +25,7 @@ import numpy as np
 import torch
 import tyro
 
-from selfright.env.goal import goal_height_m
+from selfright.env.goal import goal_height_m, upright
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.registry import make_policy
@@ -37,7 +36,6 @@ def main(a: ReplayArgs) -> None:
     policy = make_policy(a.policy, cfg)
     env, cells = replay_env(a, cfg)
     bar = goal_height_m(cfg.goal, env.robot.leg_length_m)
-    tilt = math.radians(cfg.goal.max_tilt_deg)
     for k, cell in enumerate(cells):
         classes: Counter[str] = Counter()
         low_h: list[tuple[float, float]] = []
@@ -54,7 +52,7 @@ def main(a: ReplayArgs) -> None:
             failed |= env.diverged[torch.from_numpy(ids)].numpy()
             # Slots keep their final state (and sensors) until the next reset: classify it.
             st = env.robot_state(ids)
-            upright = ((st.roll.abs() <= tilt) & (st.pitch.abs() <= tilt)).numpy()
+            is_up = upright(st.roll, st.pitch, cfg.goal).numpy()
             feet_down = st.feet_contact.sum(dim=-1).numpy()
             height = st.height.numpy()
             feet_xy = _feet_xy(env, ids)
@@ -64,7 +62,7 @@ def main(a: ReplayArgs) -> None:
                 if success[i]:
                     classes["success"] += 1
                     continue
-                up, feet, h = bool(upright[i]), int(feet_down[i]), float(height[i])
+                up, feet, h = bool(is_up[i]), int(feet_down[i]), float(height[i])
                 h_feet = float(trunk_z[i] - feet_ground[i])
                 if failed[i]:
                     classes["left tile / diverged"] += 1

@@ -14,6 +14,12 @@ def goal_height_m(cfg: GoalConfig, leg_length_m: float) -> float:
     return cfg.height_fraction * leg_length_m
 
 
+def upright(roll: torch.Tensor, pitch: torch.Tensor, cfg: GoalConfig) -> torch.Tensor:
+    """(n,) bool: roll and pitch (rad) both within the goal set's tilt tolerance."""
+    tilt = math.radians(cfg.max_tilt_deg)
+    return (roll.abs() <= tilt) & (pitch.abs() <= tilt)
+
+
 def in_goal_set(
     roll: torch.Tensor,
     pitch: torch.Tensor,
@@ -32,9 +38,7 @@ def in_goal_set(
     Returns:
         (n,) bool: |roll| ≤ tilt, |pitch| ≤ tilt, all feet down, height ≥ fraction × leg length.
     """
-    tilt = math.radians(cfg.max_tilt_deg)
-    upright = (roll.abs() <= tilt) & (pitch.abs() <= tilt)
-    return upright & feet_contact.all(dim=-1) & (height >= goal_height_m(cfg, leg_length_m))
+    return upright(roll, pitch, cfg) & feet_contact.all(dim=-1) & (height >= goal_height_m(cfg, leg_length_m))
 
 
 class GoalTracker:

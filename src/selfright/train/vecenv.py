@@ -25,7 +25,6 @@ completes (``success_is_timeout``: as a time-out).
 from __future__ import annotations
 
 import copy
-import math
 from collections import deque
 from typing import TYPE_CHECKING
 
@@ -36,7 +35,7 @@ from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.goal import goal_height_m
+from selfright.env.goal import goal_height_m, upright
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
@@ -242,8 +241,7 @@ class RecoveryVecEnv(VecEnv):
         env = self.env
         if self.tilted_only and stuck.any():
             rs = env.robot_state(ids.numpy())
-            limit = math.radians(env.cfg.goal.max_tilt_deg)
-            stuck &= (rs.roll.abs() > limit) | (rs.pitch.abs() > limit)
+            stuck &= ~upright(rs.roll, rs.pitch, env.cfg.goal)
         for i in ids[stuck].tolist():
             factors = self.slot_factors[i].copy() if self.randomizer is not None else None
             self.stuck_ends.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy()))
@@ -373,11 +371,9 @@ class RecoveryVecEnv(VecEnv):
         in the goal set (``in_goal``, (n,)) takes one step off the count instead of clearing it."""
         if self.low_stance_steps <= 0:
             return torch.zeros(self.num_envs, dtype=torch.bool)
-        tilt = math.radians(self.env.cfg.goal.max_tilt_deg)
-        upright = (state.roll.abs() <= tilt) & (state.pitch.abs() <= tilt)
         leaky = self.train_cfg.episode.low_stance_leaky
         feet = state.feet_contact.sum(dim=-1) >= (3 if leaky else 4)
-        low = upright & feet & (state.height < self.goal_bar_m)
+        low = upright(state.roll, state.pitch, self.env.cfg.goal) & feet & (state.height < self.goal_bar_m)
         other = (self.low_streak - 1).clamp(min=0) if leaky else torch.zeros_like(self.low_streak)
         streak = torch.where(low, self.low_streak + 1, other)
         self.low_streak = torch.where(in_goal, torch.zeros_like(streak), streak)
