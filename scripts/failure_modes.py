@@ -7,6 +7,11 @@
     upright, 4 feet, low      upright on four feet, trunk below the goal bar
     in goal, no 1 s hold      in the goal set at the end or earlier, but never for the full hold
 
+Two markers count failures of any class: "(was in goal earlier)", and "(stood up, then fell
+over)": the trunk was within 45° of upright at some step and tilted past 90° at a later one.
+On the incline most episodes that leave the tile carry the second: they tumble downhill after
+getting up, not while lying on the back.
+
 and prints, for the "low" class, the trunk height above the ground beneath it and above the
 mean ground under the feet (they differ on rough tiles; the goal set reads the first).
 
@@ -43,9 +48,14 @@ def main(a: ReplayArgs) -> None:
             ids = np.arange(len(eps))
             ever_goal = np.zeros(len(eps), bool)
             failed = np.zeros(len(eps), bool)
+            was_up = np.zeros(len(eps), bool)
+            fell_over = np.zeros(len(eps), bool)
 
             def watch(active: np.ndarray, out: StepOutput) -> None:
                 ever_goal[active] |= out.in_goal.numpy()
+                up_z = out.state.up_z.numpy()
+                fell_over[active] |= was_up[active] & (up_z < 0.0)
+                was_up[active] |= up_z > np.cos(np.radians(45.0))
                 failed[active[out.failed.numpy()]] = True
 
             success = rollout_batch(env, policy, np.full(len(eps), k), seeds, [cell.context] * len(eps), watch)
@@ -77,6 +87,8 @@ def main(a: ReplayArgs) -> None:
                     classes["in goal, no 1 s hold"] += 1
                 if ever_goal[i] and not (up and feet == 4 and h >= bar):
                     classes["(was in goal earlier)"] += 1
+                if fell_over[i]:
+                    classes["(stood up, then fell over)"] += 1
         print(f"cell slope {cell.slope_pct:.0f} %, roughness level {cell.roughness_level} ({a.episodes} episodes):")
         for name, n in classes.most_common():
             print(f"  {name:26s} {n:4d}")

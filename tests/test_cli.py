@@ -4,7 +4,6 @@ import subprocess
 import sys
 
 import mujoco
-import pytest
 
 from selfright.cli import main
 

@@ -21,7 +21,7 @@ from selfright.config import ActionConfig, BenchmarkConfig, RewardConfig, to_dic
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.learned import load_policy_file
 from selfright.train.commands import ExportArgs, export
-from selfright.train.config import DistillationConfig, PPOConfig, TrainConfig
+from selfright.train.config import DistillationConfig, EpisodeConfig, PPOConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.train.checkpoints import list_checkpoints
 from selfright.train.runner import RunSpec, TrainingRun
@@ -118,6 +118,25 @@ def test_existing_run_needs_resume(tmp_path: Path):
             assert "\n" not in str(e)
         else:
             raise AssertionError("expected ValueError")
+
+
+def test_resume_continues_the_checkpoints_curriculum_levels_and_progress(tmp_path: Path):
+    """A resumed run picks up its slots' curriculum levels (saved with each checkpoint) instead of
+    climbing again from the easiest, and counts steps and time from the checkpoint it resumes."""
+    ep = EpisodeConfig(curriculum=True, incline_curriculum_deg=(5.0, 20.0), episode_s=0.1)
+    train = dataclasses.replace(TINY, episode=ep)
+    out = tmp_path / "incline"
+    run(spec(out, context="incline", train=train))
+    path = out / "model_0.pt"
+    data = torch.load(path, weights_only=True)
+    assert len(data["infos"]["curriculum_level"]) == 4
+    data["infos"].update(curriculum_level=[1, 0, 1, 1], env_steps=999, wall_clock_s=12.0)
+    torch.save(data, path)
+    resumed = TrainingRun(spec(out, context="incline", train=train, iterations=2, resume=True))
+    resumed.setup()
+    assert resumed.env.level.tolist() == [1, 0, 1, 1]
+    assert resumed.base_steps == 999 and resumed.base_wall == 12.0
+    resumed.env.close()
 
 
 def test_init_from_starts_new_teacher_from_weights(tmp_path: Path):

@@ -143,7 +143,7 @@ def test_average_checkpoints_means_the_actor_and_keeps_the_rest(tmp_path, monkey
 def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeypatch):
     from selfright.policies.actor import actor_from_checkpoint, load_actor_file
     from selfright.policies.registry import shipped_path
-    from selfright.train.checkpoints import latest_checkpoint, read_meta
+    from selfright.train.checkpoints import latest_checkpoint
     from selfright.train.config import PolicyConfig
     from selfright.train.runner import teacher_policy_config
 

@@ -262,9 +262,11 @@ class TrainingRun:
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
         if fallback is not None:
             self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
+        resumed_infos: dict = {}
         if self.resume_ckpt is not None:
-            r.load(str(self.resume_ckpt))
+            resumed_infos = r.load(str(self.resume_ckpt)) or {}
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
+            self.env.restore_curriculum(resumed_infos.get("curriculum_level"))
         elif s.role == "student":
             if fallback is None:  # (with a fallback both teachers are loaded above)
                 r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
@@ -285,8 +287,10 @@ class TrainingRun:
                     print(f"--init-from: re-centred observation features constant in the source run: {moved}")
         self.start_it = start_it
         self.steps_per_it = self.cfg["num_steps_per_env"] * s.num_envs
-        self.base_steps = int(self.prev_meta.get("env_steps", 0))
-        self.base_wall = float(self.prev_meta.get("wall_clock_s", 0.0))
+        # Progress of the checkpoint resumed (its own infos), not of the run's latest meta file:
+        # they differ when an earlier checkpoint is continued in a copy of the run folder.
+        self.base_steps = int(resumed_infos.get("env_steps", self.prev_meta.get("env_steps", 0)))
+        self.base_wall = float(resumed_infos.get("wall_clock_s", self.prev_meta.get("wall_clock_s", 0.0)))
         self.t0 = time.time()
 
     def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
@@ -385,6 +389,8 @@ class TrainingRun:
         self.runner.current_learning_iteration = it
         meta = self.meta(it + 1, path)
         progress = {k: meta[k] for k in ("iterations_done", "env_steps", "wall_clock_s")}
+        if self.env.curriculum:  # a resumed run continues at the levels its slots had reached
+            progress["curriculum_level"] = self.env.level.tolist()
         self.runner.save(str(path), infos={**self.policy_meta(), "source": str(path), **progress})
         tmp = self.out / (META_FILE + ".tmp")
         tmp.write_text(json.dumps(meta, indent=2))

@@ -404,5 +404,14 @@ class RecoveryVecEnv(VecEnv):
         step = up.long() - down.long()
         self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)
 
+    def restore_curriculum(self, levels: list[int] | None) -> None:
+        """Set the slots' curriculum levels to those saved with a checkpoint (``None`` or no
+        curriculum: nothing to do). A different slot count reuses the saved levels in turn; the
+        episodes already running keep theirs, and the next ones start at the restored levels."""
+        if not self.curriculum or not levels:
+            return
+        saved = torch.as_tensor(levels, dtype=torch.long).clamp(0, len(self.env.worlds) - 1)
+        self.level[:] = saved[torch.arange(self.num_envs) % len(saved)]
+
     def close(self) -> None:
         self.env.close()
