@@ -6,6 +6,7 @@ import runpy
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
@@ -17,9 +18,9 @@ def run_script(name: str, args: list[str], monkeypatch: pytest.MonkeyPatch) -> N
 
 
 def failure_classes(out: str) -> list[int]:
-    """Episode counts of ``failure_modes.py``'s classes (one per episode; not the "was in goal" tally)."""
-    return [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ") and "(was" not in line
-            and not line.strip().startswith("low:")]
+    """Episode counts of ``failure_modes.py``'s classes (one per episode; not the bracketed markers)."""
+    return [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ")
+            and not line.strip().startswith(("(", "low:"))]
 
 
 def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
@@ -34,6 +35,25 @@ def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
 def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
     run_script("failure_modes.py", ["--policy", "zero", "--grid", "flat", "--episodes", "4"], monkeypatch)
     assert sum(failure_classes(capsys.readouterr().out)) == 4
+
+
+def test_tumbles_finds_each_upright_spell_that_ends_tilted():
+    sys.path.insert(0, str(SCRIPTS))
+    try:
+        from tumbles import refalls
+    finally:
+        sys.path.remove(str(SCRIPTS))
+    up_z = np.array([0.0, 0.9, 0.9, 0.9, 0.2, 0.95, 0.95])  # up for 3 steps, tilted, up to the end
+    tip = np.array([0.0, 0.0, 0.0, 0.0, 180.0, 0.0, 0.0])
+    feet = np.array([0, 4, 4, 1, 0, 4, 4])
+    height = np.array([0.1, 0.3, 0.35, 0.3, 0.1, 0.33, 0.33])
+    (e,) = refalls(up_z, tip, feet, height, ok=False, dt=0.02)  # the spell still upright at the end is no re-fall
+    assert e.upright_s == pytest.approx(0.06) and e.mean_feet == 3.0 and e.max_height_m == 0.35 and e.tip_deg == 180.0
+
+
+def test_tumbles_runs_on_the_incline(monkeypatch, capsys):
+    run_script("tumbles.py", ["--policy", "zero", "--grid", "incline", "--episodes", "2"], monkeypatch)
+    assert "re-falls in 2 episodes" in capsys.readouterr().out
 
 
 def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
