@@ -25,13 +25,12 @@ from __future__ import annotations
 
 from collections import Counter
 
-import mujoco
 import numpy as np
 import torch
 import tyro
 
 from selfright.env.goal import goal_height_m, upright
-from selfright.env.recovery_env import RecoveryEnv, StepOutput
+from selfright.env.recovery_env import StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.registry import make_policy
 
@@ -65,8 +64,7 @@ def main(a: ReplayArgs) -> None:
             is_up = upright(st.roll, st.pitch, cfg.goal).numpy()
             feet_down = st.feet_contact.sum(dim=-1).numpy()
             height = st.height.numpy()
-            feet_xy = _feet_xy(env, ids)
-            feet_ground = env.ground_height(np.repeat(ids, 4), feet_xy.reshape(-1, 2)).reshape(-1, 4).mean(1)
+            feet_ground = env.feet_ground_height(ids)
             trunk_z = env.state[ids, env.sl.pos][:, 2]
             for i in ids:
                 if success[i]:
@@ -97,19 +95,6 @@ def main(a: ReplayArgs) -> None:
             print(f"  low: height above ground beneath trunk median {np.median(h[:, 0]):.3f} m; "
                   f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m)")
     env.close()
-
-
-def _feet_xy(env: RecoveryEnv, ids: np.ndarray) -> np.ndarray:
-    """(k, 4, 2) world x-y of the feet of slots ``ids`` (forward kinematics of their states)."""
-    out = np.zeros((len(ids), 4, 2))
-    for k, i in enumerate(ids):
-        model = env.models[i]
-        data = mujoco.MjData(model)
-        mujoco.mj_setState(model, data, env.state[i], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-        mujoco.mj_kinematics(model, data)
-        for f, g in enumerate(env.robot.foot_geoms):
-            out[k, f] = data.geom_xpos[model.geom(g).id][:2]
-    return out
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 from types import SimpleNamespace
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -174,6 +175,39 @@ def test_leaky_low_stance_count_outlasts_a_lifted_foot(flat_worlds):
     assert step([low, low, bar + 0.01], [4, 3, 4], in_goal=(False, False, True)) == [False] * 3  # slot 2 in goal: cleared
     assert step([low, low, low], [4, 3, 4]) == [True, False, False]
     assert env.low_streak.tolist() == [4, 2, 1]
+    env.close()
+
+
+def test_low_stance_over_the_feet_reads_the_ground_under_the_feet(flat_worlds):
+    """``low_stance_over_feet_m``: the stance is low under that height above the mean ground under
+    the feet (the foot sensors' x-y on the tile), whatever the goal bar says."""
+    ep = EpisodeConfig(terminate_low_stance_s=2 * CFG.sim.control_dt_s, low_stance_over_feet_m=0.36)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=1)
+    bar = env.goal_bar_m
+    zero = torch.zeros(2)
+    pos = torch.tensor([[0.0, 0.0, 0.34], [0.0, 0.0, 0.38]], dtype=torch.float64)  # both above the 0.32 m bar
+    st = SimpleNamespace(roll=zero, pitch=zero, feet_contact=torch.ones(2, 4, dtype=torch.bool),
+                         height=torch.full((2,), bar + 0.02), pos=pos)
+    ground = env.env.feet_ground_height(np.arange(2))
+    assert np.allclose(ground, 0.0)  # the flat tile
+    out = torch.zeros(2, dtype=torch.bool)
+    assert [env._low_stance_ended(st, out).tolist() for _ in range(2)] == [[False, False], [True, False]]
+    env.close()
+
+
+def test_feet_sensors_are_the_foot_geoms(flat_worlds):
+    env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=2, seed=1)
+    with torch.inference_mode():
+        for _ in range(40):  # hold the stand pose until the robots lie nearly still
+            env.step(torch.zeros(2, 12))
+    inner = env.env
+    model = inner.models[1]
+    data = mujoco.MjData(model)
+    mujoco.mj_setState(model, data, inner.state[1], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_kinematics(model, data)
+    want = np.stack([data.geom_xpos[model.geom(g).id] for g in inner.robot.foot_geoms])
+    # sensors are read in the last physics step before its integration: millimetres apart
+    assert np.allclose(inner.feet_xyz(np.array([1]))[0], want, atol=5e-3)
     env.close()
 
 

@@ -175,6 +175,17 @@ class RecoveryEnv:
         """(k,) ground height under points ``xy`` (k, 2) on the tiles of slots ``ids``."""
         return sample_heights(self.heights, self.world_idx[ids], xy, self.res)
 
+    def feet_xyz(self, ids: np.ndarray) -> np.ndarray:
+        """(k, F, 3) world positions of the feet of slots ``ids`` (their geoms' centres)."""
+        return self.sens[ids][:, self.so.foot_pos].reshape(len(ids), -1, 3)
+
+    def feet_ground_height(self, ids: np.ndarray) -> np.ndarray:
+        """(k,) mean ground height under the feet of slots ``ids``. On rough tiles it differs
+        from the ground under the trunk, which is what the goal set reads."""
+        xy = self.feet_xyz(ids)[:, :, :2]
+        f = xy.shape[1]
+        return self.ground_height(np.repeat(ids, f), xy.reshape(-1, 2)).reshape(-1, f).mean(axis=1)
+
     def robot_state(self, ids: np.ndarray) -> RobotState:
         st = self.state[ids]
         return decode(st, self.sens[ids], self.ground_height(ids, st[:, 1:3]), self.sl, self.so)

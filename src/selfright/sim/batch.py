@@ -69,6 +69,7 @@ def sensor_layout(model: mujoco.MjModel, robot: RobotSpec) -> SensorLayout:
         body_contact=span([f"contact_{g}" for g in robot.collision_geoms]),
         gyro=span(["gyro"]),
         actuator_force=span([f"tau_{j}" for j in robot.joint_names]),
+        foot_pos=span([f"pos_{g}" for g in robot.foot_geoms]),
     )
 
 

@@ -23,6 +23,8 @@ class SensorLayout:
     body_contact: slice
     gyro: slice
     actuator_force: slice
+    foot_pos: slice
+    """World positions of the foot geoms' centres, (x, y, z) per foot."""
 
 
 def _sensors_xml(robot: RobotSpec) -> str:
@@ -30,6 +32,7 @@ def _sensors_xml(robot: RobotSpec) -> str:
     lines += [f'    <contact name="contact_{g}" geom1="{g}" geom2="{TERRAIN_GEOM}" data="found"/>' for g in robot.collision_geoms]
     lines.append('    <gyro name="gyro" site="imu"/>')
     lines += [f'    <actuatorfrc name="tau_{j}" actuator="{j.removesuffix("_joint")}"/>' for j in robot.joint_names]
+    lines += [f'    <framepos name="pos_{g}" objtype="geom" objname="{g}"/>' for g in robot.foot_geoms]
     return "\n".join(lines)
 
 

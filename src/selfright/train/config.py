@@ -66,6 +66,13 @@ class EpisodeConfig:
     other steps outside the goal set only take one step off the count, and clear it in the
     goal set. Off, a single step with a foot lifted or above the bar clears the count, which a
     robot creeping downhill on the incline does all the time (docs/training.md)."""
+    low_stance_over_feet_m: float | None = None
+    """With ``terminate_low_stance_s``: a stance is low when the trunk is under this height (m)
+    above the mean ground under the feet, not under the goal bar above the ground beneath the
+    trunk (``None``). On rough tiles the goal bar reads the bump or trough beneath the trunk, so
+    the bar-based rule also ends proper stances (it ended 50–66 % of a rough teacher's episodes:
+    docs/training.md); measured over the feet it ends only crouches, and a threshold above the
+    bar asks for the taller stance that clears bumps. The goal set still clears the count."""
     replay_failed: float = 0.0
     """Share of new training episodes that replay the start of a recent failed one (the same
     fall-protocol draw on the same tile: position, orientation, joints; fresh randomisation

@@ -365,15 +365,22 @@ class RecoveryVecEnv(VecEnv):
         return self._obs, reward.to(self.device), dones.to(self.device), extras
 
     def _low_stance_ended(self, state: RobotState, in_goal: torch.Tensor) -> torch.Tensor:
-        """(n,) bool: the robot has now stood upright on four feet under the goal bar for
+        """(n,) bool: the robot has now stood upright on four feet under the goal bar (or under
+        ``low_stance_over_feet_m`` above the ground under its feet) for
         ``EpisodeConfig.terminate_low_stance_s`` without a break (all False when off). With
         ``low_stance_leaky`` three feet count too, and a step that is neither such a stance nor
         in the goal set (``in_goal``, (n,)) takes one step off the count instead of clearing it."""
         if self.low_stance_steps <= 0:
             return torch.zeros(self.num_envs, dtype=torch.bool)
-        leaky = self.train_cfg.episode.low_stance_leaky
+        ep = self.train_cfg.episode
+        leaky = ep.low_stance_leaky
         feet = state.feet_contact.sum(dim=-1) >= (3 if leaky else 4)
-        low = upright(state.roll, state.pitch, self.env.cfg.goal) & feet & (state.height < self.goal_bar_m)
+        if ep.low_stance_over_feet_m is None:
+            under = state.height < self.goal_bar_m
+        else:
+            over_feet = state.pos[:, 2].numpy() - self.env.feet_ground_height(np.arange(self.num_envs))
+            under = torch.from_numpy(over_feet < ep.low_stance_over_feet_m)
+        low = upright(state.roll, state.pitch, self.env.cfg.goal) & feet & under
         other = (self.low_streak - 1).clamp(min=0) if leaky else torch.zeros_like(self.low_streak)
         streak = torch.where(low, self.low_streak + 1, other)
         self.low_streak = torch.where(in_goal, torch.zeros_like(streak), streak)
