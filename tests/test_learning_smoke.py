@@ -274,6 +274,8 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     )
     ended["episode"]["low_stance_leaky"] = True
     assert "upright on three or four feet (a leaky count) under the goal bar" in reward_summary({"role": "teacher", "train_config": ended})
+    ended["episode"]["low_stance_over_feet_m"] = 0.34
+    assert "(a leaky count) under 0.34 m above the ground under the feet (not" in reward_summary({"role": "teacher", "train_config": ended})
 
 
 def test_card_record_reads_back_what_a_card_states():

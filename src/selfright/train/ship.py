@@ -199,7 +199,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
     rule = ""
     if low:
         stance = "three or four feet (a leaky count)" if episode.get("low_stance_leaky") else "four feet"
-        rule = f"; training episodes ended as terminal after {low} s upright on {stance} under the goal bar (not in the seed)"
+        over_feet = episode.get("low_stance_over_feet_m")
+        bar = "the goal bar" if over_feet is None else f"{over_feet} m above the ground under the feet"
+        rule = f"; training episodes ended as terminal after {low} s upright on {stance} under {bar} (not in the seed)"
     if not changed:
         return f"{TABLE_I_WORDS} (z* = {z_txt}){rule}"
     return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt}){rule}"
