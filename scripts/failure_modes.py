@@ -34,6 +34,8 @@ from selfright.env.recovery_env import StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
 from selfright.policies.registry import make_policy
 
+COS_45 = float(np.cos(np.radians(45.0)))
+
 
 def main(a: ReplayArgs) -> None:
     cfg = a.bench_config()
@@ -54,7 +56,7 @@ def main(a: ReplayArgs) -> None:
                 ever_goal[active] |= out.in_goal.numpy()
                 up_z = out.state.up_z.numpy()
                 fell_over[active] |= was_up[active] & (up_z < 0.0)
-                was_up[active] |= up_z > np.cos(np.radians(45.0))
+                was_up[active] |= up_z > COS_45
                 failed[active[out.failed.numpy()]] = True
 
             success = rollout_batch(env, policy, np.full(len(eps), k), seeds, [cell.context] * len(eps), watch)
@@ -64,14 +66,13 @@ def main(a: ReplayArgs) -> None:
             is_up = upright(st.roll, st.pitch, cfg.goal).numpy()
             feet_down = st.feet_contact.sum(dim=-1).numpy()
             height = st.height.numpy()
-            feet_ground = env.feet_ground_height(ids)
-            trunk_z = env.state[ids, env.sl.pos][:, 2]
+            over_feet = env.height_over_feet(ids)
             for i in ids:
                 if success[i]:
                     classes["success"] += 1
                     continue
                 up, feet, h = bool(is_up[i]), int(feet_down[i]), float(height[i])
-                h_feet = float(trunk_z[i] - feet_ground[i])
+                h_feet = float(over_feet[i])
                 if failed[i]:
                     classes["left tile / diverged"] += 1
                 elif not up:

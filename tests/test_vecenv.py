@@ -185,9 +185,9 @@ def test_low_stance_over_the_feet_reads_the_ground_under_the_feet(flat_worlds):
     env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=1)
     bar = env.goal_bar_m
     zero = torch.zeros(2)
-    pos = torch.tensor([[0.0, 0.0, 0.34], [0.0, 0.0, 0.38]], dtype=torch.float64)  # both above the 0.32 m bar
+    env.env.state[:, env.env.sl.pos.start + 2] = (0.34, 0.38)  # trunk z; both above the 0.32 m bar
     st = SimpleNamespace(roll=zero, pitch=zero, feet_contact=torch.ones(2, 4, dtype=torch.bool),
-                         height=torch.full((2,), bar + 0.02), pos=pos)
+                         height=torch.full((2,), bar + 0.02))
     ground = env.env.feet_ground_height(np.arange(2))
     assert np.allclose(ground, 0.0)  # the flat tile
     out = torch.zeros(2, dtype=torch.bool)

@@ -177,7 +177,7 @@ class RecoveryEnv:
 
     def feet_xyz(self, ids: np.ndarray) -> np.ndarray:
         """(k, F, 3) world positions of the feet of slots ``ids`` (their geoms' centres)."""
-        return self.sens[ids][:, self.so.foot_pos].reshape(len(ids), -1, 3)
+        return self.sens[ids, self.so.foot_pos].reshape(len(ids), -1, 3)
 
     def feet_ground_height(self, ids: np.ndarray) -> np.ndarray:
         """(k,) mean ground height under the feet of slots ``ids``. On rough tiles it differs
@@ -185,6 +185,11 @@ class RecoveryEnv:
         xy = self.feet_xyz(ids)[:, :, :2]
         f = xy.shape[1]
         return self.ground_height(np.repeat(ids, f), xy.reshape(-1, 2)).reshape(-1, f).mean(axis=1)
+
+    def height_over_feet(self, ids: np.ndarray) -> np.ndarray:
+        """(k,) trunk height above the mean ground under the feet of slots ``ids`` (the goal set
+        reads it above the ground beneath the trunk: ``RobotState.height``)."""
+        return self.state[ids, self.sl.pos][:, 2] - self.feet_ground_height(ids)
 
     def robot_state(self, ids: np.ndarray) -> RobotState:
         st = self.state[ids]

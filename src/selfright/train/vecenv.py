@@ -378,8 +378,7 @@ class RecoveryVecEnv(VecEnv):
         if ep.low_stance_over_feet_m is None:
             under = state.height < self.goal_bar_m
         else:
-            over_feet = state.pos[:, 2].numpy() - self.env.feet_ground_height(np.arange(self.num_envs))
-            under = torch.from_numpy(over_feet < ep.low_stance_over_feet_m)
+            under = torch.from_numpy(self.env.height_over_feet(np.arange(self.num_envs)) < ep.low_stance_over_feet_m)
         low = upright(state.roll, state.pitch, self.env.cfg.goal) & feet & under
         other = (self.low_streak - 1).clamp(min=0) if leaky else torch.zeros_like(self.low_streak)
         streak = torch.where(low, self.low_streak + 1, other)
