@@ -48,3 +48,17 @@ def test_training_validates_each_checkpoint(tmp_path: Path):
     assert [s.iteration for s in scores] == [0, 1]
     assert all(s.episodes >= 1 and 0.0 <= s.success_rate <= 1.0 and s.env_steps > 0 for s in scores)
     assert (out / validation.BEST_FILE).exists() and (out / "validation" / "model_1" / "summary.json").exists()
+
+
+def test_a_teacher_trained_beside_a_frozen_policy_is_validated_in_their_composite(tmp_path: Path):
+    import json
+
+    frozen = tmp_path / "frozen"
+    run(spec(frozen))
+    ep = dataclasses.replace(TINY.episode, tilted_policy=str(frozen), upright_tilt_deg=45.0)
+    train = dataclasses.replace(TINY, episode=ep, validation=ValidationConfig(episodes=1, grid="tiny"))
+    out = tmp_path / "upright"
+    run(spec(out, train=train))
+    summary = json.loads((out / "validation" / "model_0" / "summary.json").read_text())
+    assert summary["policy"] == f"model_0.pt under {frozen} (tilted)"
+    assert [s.iteration for s in read_scores(out)] == [0]

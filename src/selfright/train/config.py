@@ -256,7 +256,9 @@ class DistillationConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class ValidationConfig:
-    """Benchmark evaluation of every saved checkpoint (``selfright.train.validation``)."""
+    """Benchmark evaluation of every saved checkpoint (``selfright.train.validation``). A teacher
+    trained beside a frozen policy (``EpisodeConfig.upright_policy`` or ``tilted_policy``) is
+    validated inside that composite, the policy it is trained to be part of."""
 
     episodes: int = 0
     """Episodes per grid cell for each checkpoint; 0 = no validation."""

@@ -410,10 +410,15 @@ class TrainingRun:
             return
         from selfright.train import validation
 
+        ep = self.spec.train.episode
+        partner = None
+        if self.spec.role == "teacher" and (ep.upright_policy or ep.tilted_policy):
+            side = "upright" if ep.upright_policy else "tilted"
+            partner = validation.Partner(ep.upright_policy or ep.tilted_policy, side, ep.upright_tilt_deg)
         t = time.time()
         score = validation.evaluate_checkpoint(
             ckpt, iteration=it, env_steps=env_steps, grid=v.grid or self.spec.context, episodes=v.episodes,
-            seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=self.spec.bench,
+            seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=self.spec.bench, partner=partner,
         )
         best = validation.record(self.out, score, ckpt)
         writer = self.runner.logger.writer
@@ -421,7 +426,9 @@ class TrainingRun:
             writer.add_scalar("Validation/success_rate", score.success_rate, score.iteration)
         if not self.spec.quiet:
             print(
-                f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}: {score.successes}/{score.episodes} "
+                f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}"
+                + (f" under {partner.policy} ({partner.acts_when})" if partner else "")
+                + f": {score.successes}/{score.episodes} "
                 f"= {100 * score.success_rate:.1f} % (seed {v.seed}, {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
                 flush=True,

@@ -60,17 +60,45 @@ def best_score(scores: list[Score]) -> Score | None:
     return max(scores, key=lambda s: (s.success_rate, -s.iteration), default=None)
 
 
+@dataclass(frozen=True)
+class Partner:
+    """The frozen policy a run trains beside (``EpisodeConfig.upright_policy`` /
+    ``tilted_policy``): validation scores the composite, which is what such a run is for."""
+
+    policy: str
+    acts_when: str
+    """``"upright"`` (within ``tilt_deg`` of upright) or ``"tilted"`` (beyond it)."""
+    tilt_deg: float
+
+
 def evaluate_checkpoint(
-    ckpt: Path, *, iteration: int, env_steps: int, grid: str, episodes: int, seed: int, out_dir: Path, bench: BenchmarkConfig
+    ckpt: Path,
+    *,
+    iteration: int,
+    env_steps: int,
+    grid: str,
+    episodes: int,
+    seed: int,
+    out_dir: Path,
+    bench: BenchmarkConfig,
+    partner: Partner | None = None,
 ) -> Score:
     """Success of checkpoint ``ckpt`` (saved after ``iteration``, ``env_steps``) on ``grid``
-    (``episodes`` per cell, run seed ``seed``)."""
+    (``episodes`` per cell, run seed ``seed``); with ``partner``, of the composite that hands
+    over between the two by tilt, as in training."""
     from selfright.evaluate.runner import evaluate_grid
     from selfright.policies.registry import make_policy
 
     policy = make_policy(str(ckpt), bench)
+    if partner is not None:
+        from selfright.policies.stall import TiltSwitch
+        from selfright.policies.variants import Fallback
+
+        other = make_policy(partner.policy, bench)
+        upright, tilted = (other, policy) if partner.acts_when == "upright" else (policy, other)
+        policy = Fallback(upright, tilted, TiltSwitch(partner.tilt_deg))
     res = evaluate_grid(
-        policy, policy_name=ckpt.name, grid=grid, episodes=episodes, seed=seed, out_dir=out_dir, cfg=bench, progress=False
+        policy, policy_name=ckpt.name + (f" under {partner.policy} ({partner.acts_when})" if partner else ""), grid=grid, episodes=episodes, seed=seed, out_dir=out_dir, cfg=bench, progress=False
     )
     o = res.summary["overall"]
     return Score(iteration, env_steps, int(o["successes"]), int(o["n"]))
