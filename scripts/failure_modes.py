@@ -32,14 +32,13 @@ import tyro
 from selfright.env.goal import goal_height_m, upright
 from selfright.env.recovery_env import StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
-from selfright.policies.registry import make_policy
 
 COS_45 = float(np.cos(np.radians(45.0)))
 
 
 def main(a: ReplayArgs) -> None:
     cfg = a.bench_config()
-    policy = make_policy(a.policy, cfg)
+    policy = a.make_policy(cfg)
     env, cells = replay_env(a, cfg)
     bar = goal_height_m(cfg.goal, env.robot.leg_length_m)
     for k, cell in enumerate(cells):

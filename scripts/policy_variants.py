@@ -55,6 +55,9 @@ class Args:
     tilt_deg: float = 0.0
     """With two policies: the second acts whenever the robot is tilted more than this from
     upright, the first otherwise (``selfright.policies.stall.TiltSwitch``); 0 = off."""
+    release_deg: float | None = None
+    """With ``tilt_deg``: hysteresis. Once upright within ``tilt_deg``, the first policy keeps
+    acting until the tilt passes this (deg)."""
     blind_first: tuple[str, ...] = ()
     """Privileged blocks hidden from the first policy (a teacher): ``velocity`` (read as 0),
     ``friction`` (1.0), ``factors`` (1.0); ``selfright.policies.variants.Blinded``."""
@@ -88,7 +91,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         raise ValueError("--fallback-s and --tilt-deg take two policies")
     if a.fallback_s > 0 or a.tilt_deg > 0:
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
-        return Fallback(*members, hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar),
+        rule = hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar, release_deg=a.release_deg)
+        return Fallback(*members, rule,
                         feed_both=a.feed_both)
     return members[0] if len(members) == 1 else MeanOf(members)
 

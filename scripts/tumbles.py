@@ -21,7 +21,6 @@ import tyro
 
 from selfright.env.recovery_env import StepOutput
 from selfright.evaluate.runner import ReplayArgs, replay_batches, replay_env, rollout_batch
-from selfright.policies.registry import make_policy
 
 COS_45 = float(np.cos(np.radians(45.0)))
 
@@ -51,7 +50,7 @@ def refalls(up_z: np.ndarray, tip: np.ndarray, feet: np.ndarray, height: np.ndar
 
 def main(a: ReplayArgs) -> None:
     cfg = a.bench_config()
-    policy = make_policy(a.policy, cfg)
+    policy = a.make_policy(cfg)
     env, cells = replay_env(a, cfg)
     events: list[Refall] = []
     for k, cell in enumerate(cells):
@@ -71,7 +70,7 @@ def main(a: ReplayArgs) -> None:
                 r = np.array(rows)
                 events += refalls(r[:, 0], r[:, 1], r[:, 2], r[:, 3], bool(success[i]), env.control_dt)
     env.close()
-    print(f"{len(events)} re-falls in {a.episodes * len(cells)} episodes ({a.policy} on --grid {a.grid}, seed {a.seed})")
+    print(f"{len(events)} re-falls in {a.episodes * len(cells)} episodes ({a.label} on --grid {a.grid}, seed {a.seed})")
     if not events:
         return
     print(" episode ok  upright (s)  mean feet down  max height (m)  tipped towards (deg, 0 = +x uphill)")

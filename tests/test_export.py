@@ -237,6 +237,30 @@ def test_tilt_fallback_acts_exactly_while_tilted_over():
         assert fb.act({"student": obs}, ids, [None] * 4)[:, 0].tolist() == [1.0, 1.0, 2.0, 2.0]
 
 
+def test_tilt_fallback_with_release_keeps_a_caught_robot_until_the_release_tilt():
+    from selfright.policies.stall import TiltSwitch
+    from selfright.policies.variants import Fallback
+
+    fb = Fallback(_Const(1.0), _Const(2.0), TiltSwitch(45.0, release_deg=90.0))
+    ids = np.arange(2)
+    fb.reset(ids)
+
+    def at(deg0: float, deg1: float) -> list[float]:
+        obs = torch.zeros(2, 42)
+        tilt = torch.deg2rad(torch.tensor([deg0, deg1]))
+        obs[:, 0], obs[:, 2] = torch.sin(tilt), -torch.cos(tilt)
+        return fb.act({"student": obs}, ids, [None] * 2)[:, 0].tolist()
+
+    assert at(60.0, 60.0) == [2.0, 2.0]  # tilted over 45 deg from the start: the second acts
+    assert at(30.0, 60.0) == [1.0, 2.0]  # slot 0 comes upright: caught
+    assert at(80.0, 80.0) == [1.0, 2.0]  # caught until past 90 deg; slot 1 never was
+    assert at(100.0, 40.0) == [2.0, 1.0]
+    fb.reset(np.array([1]))
+    assert at(60.0, 60.0) == [2.0, 2.0]  # a new episode starts uncaught
+    with pytest.raises(ValueError, match="release_deg"):
+        TiltSwitch(45.0, release_deg=30.0)
+
+
 class _Count(Policy):
     """Counts the steps each slot was shown; acts with that count."""
 

@@ -56,6 +56,26 @@ def test_tumbles_runs_on_the_incline(monkeypatch, capsys):
     assert "re-falls in 2 episodes" in capsys.readouterr().out
 
 
+def test_downhill_bins_every_episode_of_every_seed(monkeypatch, capsys):
+    run_script("downhill.py", ["--policy", "zero", "--episodes", "2", "--seeds", "0", "1"], monkeypatch)
+    out = capsys.readouterr().out
+    assert "0 / 4 = 0.0 %" in out
+    counts = [int(line.split()[-3]) for line in out.splitlines() if line.strip().startswith("[")]
+    assert sum(counts) == 4 and "travel of the failures" in out
+
+
+def test_replays_take_a_tilt_composite(monkeypatch, capsys):
+    run_script("failure_modes.py", ["--policy", "zero", "--tilted-policy", "random", "--grid", "flat", "--episodes", "2"],
+               monkeypatch)
+    assert sum(failure_classes(capsys.readouterr().out)) <= 2
+    from selfright.config import BenchmarkConfig
+    from selfright.evaluate.runner import ReplayArgs
+    from selfright.policies.variants import Fallback
+
+    a = ReplayArgs(policy="zero", tilted_policy="random", tilt_deg=30.0)
+    assert isinstance(a.make_policy(BenchmarkConfig()), Fallback) and "tilted over 30 deg" in a.label
+
+
 def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
     import json
 

@@ -161,6 +161,31 @@ class ReplayArgs:
     falls on a larger tile: episodes that roll far keep going instead of failing at the edge
     (a diagnostic; results on another tile are not the benchmark's)."""
 
+    tilted_policy: str | None = None
+    """A second policy that acts while the trunk is tilted more than ``tilt_deg`` (the
+    composites of ``scripts/policy_variants.py --tilt-deg``); ``None`` = ``policy`` alone."""
+    tilt_deg: float = 45.0
+    """With ``tilted_policy``: the hand-over tilt (deg)."""
+
+    def make_policy(self, cfg: BenchmarkConfig) -> Policy:
+        """``policy``, or its composite with ``tilted_policy``."""
+        from selfright.policies.registry import make_policy
+
+        first = make_policy(self.policy, cfg)
+        if self.tilted_policy is None:
+            return first
+        from selfright.policies.stall import TiltSwitch
+        from selfright.policies.variants import Fallback
+
+        return Fallback(first, make_policy(self.tilted_policy, cfg), TiltSwitch(self.tilt_deg))
+
+    @property
+    def label(self) -> str:
+        """The policy (or composite) for printing."""
+        if self.tilted_policy is None:
+            return self.policy
+        return f"{self.policy} + {self.tilted_policy} (tilted over {self.tilt_deg:g} deg)"
+
     def bench_config(self) -> BenchmarkConfig:
         """The benchmark's configuration, with ``tile_size_m`` if given."""
         cfg = BenchmarkConfig()

@@ -30,23 +30,46 @@ ANG_SPEED_RAD_S = 0.5
 
 
 class TiltSwitch:
-    """The second policy acts while the trunk's up axis is more than ``tilt_deg`` from world z."""
+    """The second policy acts while the trunk's up axis is more than ``tilt_deg`` from world z.
+
+    With ``release_deg`` (> ``tilt_deg``) the rule has hysteresis: once a slot's trunk has come
+    within ``tilt_deg`` of upright, the first policy keeps acting until the tilt passes
+    ``release_deg``, so a robot that rolls through upright is not handed straight back to the
+    second. Each slot's mode is kept from step to step; ``reset`` clears it."""
 
     needs_teacher = False
 
-    def __init__(self, tilt_deg: float):
+    def __init__(self, tilt_deg: float, release_deg: float | None = None):
         if not 0.0 < tilt_deg < 180.0:
             raise ValueError(f"tilt_deg must lie in (0, 180), got {tilt_deg}")
-        self.tilt_deg = tilt_deg
-        self.when = f"tilted over {tilt_deg:g} deg"
+        if release_deg is not None and not tilt_deg < release_deg < 180.0:
+            raise ValueError(f"release_deg must lie in (tilt_deg, 180) = ({tilt_deg:g}, 180), got {release_deg}")
+        self.tilt_deg, self.release_deg = tilt_deg, release_deg
+        self.when = f"tilted over {tilt_deg:g} deg" + (f" (until upright, then over {release_deg:g} deg)" if release_deg else "")
         self._cos = math.cos(math.radians(tilt_deg))
+        self._cos_release = math.cos(math.radians(release_deg)) if release_deg is not None else None
+        self._caught = torch.zeros(0, dtype=torch.bool)
 
     def reset(self, slots: torch.Tensor) -> None:
-        """Nothing to reset: the rule keeps no state."""
+        """Clear the hysteresis mode of ``slots`` (indices, or a bool mask over all slots)."""
+        if self._cos_release is None:
+            return
+        slots = torch.as_tensor(slots)
+        if slots.dtype == torch.bool:
+            slots = slots.nonzero().flatten()
+        t = slot_index(slots)
+        self._caught = grown(self._caught, t, False).index_fill(0, t, False)
 
     def step(self, x: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
         """(k,) bool for observations ``x`` (k, D), student columns first: the second policy acts."""
-        return (-x[:, 2] < self._cos).cpu()
+        up_z = -x[:, 2].detach().cpu()
+        if self._cos_release is None:
+            return up_z < self._cos
+        t = slot_index(slots)
+        self._caught = grown(self._caught, t, False)
+        caught = (up_z >= self._cos) | (self._caught[t] & (up_z >= self._cos_release))
+        self._caught = self._caught.index_copy(0, t, caught)
+        return ~caught
 
 
 class StallSwitch:
@@ -100,11 +123,12 @@ class StallSwitch:
 
 
 def hand_over_rule(
-    tilt_deg: float, stall_s: float, hand_s: float, control_dt_s: float, bar_m: float | None = None, num_joints: int = 12
+    tilt_deg: float, stall_s: float, hand_s: float, control_dt_s: float, bar_m: float | None = None, num_joints: int = 12,
+    release_deg: float | None = None,
 ) -> TiltSwitch | StallSwitch:
-    """The rule a user picked: ``TiltSwitch(tilt_deg)`` if ``tilt_deg`` > 0, else a
+    """The rule a user picked: ``TiltSwitch(tilt_deg, release_deg)`` if ``tilt_deg`` > 0, else a
     ``StallSwitch`` that hands over after ``stall_s`` of stillness for ``hand_s`` (seconds,
     converted to control steps of ``control_dt_s``)."""
     if tilt_deg > 0:
-        return TiltSwitch(tilt_deg)
+        return TiltSwitch(tilt_deg, release_deg)
     return StallSwitch(round(stall_s / control_dt_s), round(hand_s / control_dt_s), bar_m, num_joints)
