@@ -91,13 +91,6 @@ class EpisodeConfig:
     restart_tilted_only: bool = False
     """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
     limit (lying on the back or side), not upright ones such as a crouch under the bar."""
-    restart_within_m: float | None = None
-    """With ``restart_stuck``: keep only end states whose trunk lies within this distance (m)
-    of the tile's centre along x and along y; ``None`` = anywhere on the tile. Each restarted
-    episode starts where the last one ended, so on a slope the kept states creep downhill
-    towards the edge: an incline escape specialist trained on them left the tile in 55 % of its
-    episodes (docs/training.md). 1.5 m keeps the states about where the benchmark's falls come
-    to rest (the drop square is the central 2 m; falls slide to x ≈ −2…1 m on the 20° incline)."""
     upright_policy: str | None = None
     """A frozen teacher checkpoint that acts in every training step where the trunk is within
     ``upright_tilt_deg`` of upright, replacing the trained policy's action there: an escape

@@ -113,7 +113,6 @@ class RecoveryVecEnv(VecEnv):
         self.restart_share = ep.restart_stuck
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
         self.tilted_only = ep.restart_tilted_only
-        self.restart_within_m = ep.restart_within_m
         self.stuck_ends = StuckEnds(num_envs)
         """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
         self.slot_factors = np.ones((num_envs, 4))
@@ -240,12 +239,9 @@ class RecoveryVecEnv(VecEnv):
         end says nothing useful)."""
         stuck = ~in_goal & ~excluded[ids]
         env = self.env
-        if (self.tilted_only or self.restart_within_m is not None) and stuck.any():
+        if self.tilted_only and stuck.any():
             rs = env.robot_state(ids.numpy())
-            if self.tilted_only:
-                stuck &= ~upright(rs.roll, rs.pitch, env.cfg.goal)
-            if self.restart_within_m is not None:
-                stuck &= rs.pos[:, :2].abs().amax(dim=1) <= self.restart_within_m
+            stuck &= ~upright(rs.roll, rs.pitch, env.cfg.goal)
         for i in ids[stuck].tolist():
             factors = self.slot_factors[i].copy() if self.randomizer is not None else None
             self.stuck_ends.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy()))
