@@ -31,7 +31,7 @@ from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
-from selfright.policies.stall import hand_over_rule
+from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import Blinded, EstimatedVelocity, Fallback, MeanOf, Noisy, trained_std
 from selfright.robots import get_robot
 
@@ -58,6 +58,10 @@ class Args:
     release_deg: float | None = None
     """With ``tilt_deg``: hysteresis. Once upright within ``tilt_deg``, the first policy keeps
     acting until the tilt passes this (deg)."""
+    scan_std_m: float = 0.0
+    """With ``tilt_deg`` and three policies: the first two share the upright states, the second
+    where the teacher's height scan spreads over this (m; rough ground,
+    ``selfright.policies.stall.ScanSwitch``); the third acts while tilted. 0 = off."""
     blind_first: tuple[str, ...] = ()
     """Privileged blocks hidden from the first policy (a teacher): ``velocity`` (read as 0),
     ``friction`` (1.0), ``factors`` (1.0); ``selfright.policies.variants.Blinded``."""
@@ -87,8 +91,12 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         members[0] = estimated_first(a.policies[0], a.estimate_first, cfg)
     if a.fallback_s > 0 and a.tilt_deg > 0:
         raise ValueError("give --fallback-s or --tilt-deg, not both")
+    if a.scan_std_m > 0:
+        if a.tilt_deg <= 0 or len(members) != 3:
+            raise ValueError("--scan-std-m takes three policies and --tilt-deg")
+        members = [Fallback(members[0], members[1], ScanSwitch(a.scan_std_m)), members[2]]
     if (a.fallback_s > 0 or a.tilt_deg > 0) and len(members) != 2:
-        raise ValueError("--fallback-s and --tilt-deg take two policies")
+        raise ValueError("--fallback-s and --tilt-deg take two policies (three with --scan-std-m)")
     if a.fallback_s > 0 or a.tilt_deg > 0:
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
         rule = hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar, release_deg=a.release_deg)
@@ -120,7 +128,10 @@ def main(a: Args) -> None:
         policy = make_variant(a, cfg)
     except ValueError as e:
         raise SystemExit(f"policy_variants: {e}") from None
-    if a.tilt_deg > 0:
+    if a.tilt_deg > 0 and a.scan_std_m > 0:
+        joined = (f"{a.policies[0]} then (scan spread over {a.scan_std_m:g} m) {a.policies[1]} then "
+                  f"(tilted over {a.tilt_deg:g} deg) {a.policies[2]}")
+    elif a.tilt_deg > 0:
         joined = f" then (tilted over {a.tilt_deg:g} deg) ".join(a.policies)
     elif a.fallback_s > 0:
         joined = f" then (stalled {a.stall_s:g} s, for {a.fallback_s:g} s) ".join(a.policies)

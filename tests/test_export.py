@@ -261,6 +261,24 @@ def test_tilt_fallback_with_release_keeps_a_caught_robot_until_the_release_tilt(
         TiltSwitch(45.0, release_deg=30.0)
 
 
+def test_scan_switch_hands_over_where_the_height_scan_spreads():
+    from selfright.env.observations import privileged_columns
+    from selfright.policies.stall import ScanSwitch
+    from selfright.policies.variants import Fallback
+
+    scan = privileged_columns(12)["scan"]
+    fb = Fallback(_Const(1.0), _Const(2.0), ScanSwitch(0.027))
+    assert "teacher" in fb.groups  # the scan is privileged: the teacher observation is computed
+    x = torch.zeros(3, 79)
+    x[:, scan] = 0.3  # level ground under a trunk 0.3 m up: no spread
+    x[1, scan] += 0.02 * torch.tensor([1.0, -1.0] * 12 + [0.0])  # std 0.02 m: level-4-like
+    x[2, scan] += 0.05 * torch.tensor([1.0, -1.0] * 12 + [0.0])  # std 0.05 m
+    got = fb.act({"student": x[:, :42], "teacher": x}, np.arange(3), [None] * 3)[:, 0].tolist()
+    assert got == [1.0, 1.0, 2.0]
+    with pytest.raises(ValueError):
+        ScanSwitch(0.0)
+
+
 class _Count(Policy):
     """Counts the steps each slot was shown; acts with that count."""
 

@@ -7,6 +7,8 @@ episode's start and ``step(x, slots)`` every control step.
 upright (the IMU's projected gravity). A function of the current observation alone, so a
 one-frame student can learn the composite it labels.
 
+``ScanSwitch``: the second acts where the teacher's height scan reads rough ground.
+
 ``StallSwitch``: the second takes over once the robot has lain still long enough, for a
 while. Stalled = tilted more than ``TILT_DEG`` from upright (the IMU's projected gravity), or, with a
 bar, upright with the trunk under it (the teacher observation's height, a privileged
@@ -21,7 +23,7 @@ import math
 
 import torch
 
-from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, teacher_height_column
+from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, privileged_columns, teacher_height_column
 from selfright.policies.slots import grown, slot_index
 
 TILT_DEG = 30.0
@@ -70,6 +72,31 @@ class TiltSwitch:
         caught = (up_z >= self._cos) | (self._caught[t] & (up_z >= self._cos_release))
         self._caught = self._caught.index_copy(0, t, caught)
         return ~caught
+
+
+class ScanSwitch:
+    """The second policy acts where the ground under the trunk is rough: the standard deviation
+    of the teacher observation's height scan (``SCAN_GRID``² points over 0.6 m, trunk height
+    minus ground height) exceeds ``std_m``. A privileged reading, for composite teachers on
+    level rough ground: on the ``rough`` grid the scan's spread is about 0.02 / 0.037 / 0.055 m
+    (medians) at levels 4 / 8 / 12, so 0.027 m separates level 4 from the rougher two. A slope
+    spreads the scan as well (about 0.06 m at 20°), so it is no rule for inclines."""
+
+    needs_teacher = True
+
+    def __init__(self, std_m: float, num_joints: int = 12):
+        if std_m <= 0:
+            raise ValueError(f"std_m must be positive, got {std_m}")
+        self.std_m = std_m
+        self.scan = privileged_columns(num_joints)["scan"]
+        self.when = f"the height scan spreads over {std_m:g} m"
+
+    def reset(self, slots: torch.Tensor) -> None:
+        """Nothing to reset: the rule keeps no state."""
+
+    def step(self, x: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
+        """(k,) bool for teacher observations ``x`` (k, D): the second policy acts."""
+        return (x[:, self.scan].std(dim=1) > self.std_m).cpu()
 
 
 class StallSwitch:
