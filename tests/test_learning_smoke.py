@@ -296,6 +296,9 @@ def test_model_card_names_the_fallback_teacher_and_its_rule():
     tilt = {"train_config": {"distillation": {"fallback_teacher": "runs/e/model_1.pt", "fallback_tilt_deg": 45.0}}}
     fb, words = _fallback_teacher(tilt)
     assert fb == "runs/e/model_1.pt" and "within 45°" in words and "`runs/e/model_1.pt` where it is tilted more" in words
+    three = {"train_config": {"distillation": {"fallback_teacher": "e.pt", "fallback_tilt_deg": 45.0,
+                                                "rough_teacher": "r.pt", "rough_scan_std_m": 0.027}}}
+    assert "from `r.pt` where it is upright and the height scan spreads over 0.027 m, and from `e.pt`" in _fallback_teacher(three)[1]
     stall = {"train_config": {"distillation": {"fallback_teacher": "b.pt", "fallback_tilt_deg": 0.0, "fallback_s": 1.0}}}
     assert "1.0 s after each stall" in _fallback_teacher(stall)[1]
 
@@ -441,3 +444,39 @@ def test_student_distils_from_a_teacher_with_a_stall_fallback(tmp_path: Path):
     torch.testing.assert_close(got[:2], a_up := t.runner.alg.teacher.primary(obs)[:2])
     torch.testing.assert_close(got[2:], t.runner.alg.teacher.fallback(obs)[2:])
     assert not torch.equal(a_up, t.runner.alg.teacher.fallback(obs)[:2])
+
+
+def test_student_distils_from_a_rough_ground_teacher_where_the_scan_spreads(tmp_path: Path):
+    """--train.distillation.rough-teacher: of the upright states, those whose height scan
+    spreads over rough_scan_std_m are labelled by the third teacher; tilted ones still by the
+    fallback; a resumed student keeps all three."""
+    from selfright.env.observations import privileged_columns
+    from selfright.train.fallback_teacher import FallbackTeacher
+
+    for name, seed in (("a", 0), ("b", 1), ("c", 2)):
+        run(spec(tmp_path / name, seed=seed))
+    train = dataclasses.replace(TINY, distillation=dataclasses.replace(
+        TINY.distillation, fallback_teacher=str(tmp_path / "b"), fallback_tilt_deg=45.0,
+        rough_teacher=str(tmp_path / "c"), rough_scan_std_m=0.03))
+    r = run(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train))
+    teacher = r.runner.alg.teacher
+    assert isinstance(teacher.primary, FallbackTeacher) and all(math.isfinite(v) for v in r.last_loss.values())
+    obs = r.env.get_observations()
+    x = obs["teacher"].clone()
+    scan = privileged_columns(12)["scan"]
+    x[:, scan] = 0.3
+    x[:3, 2] = -1.0  # rows 0-2 upright, row 3 on its back
+    x[1:, scan] += 0.05 * torch.tensor([1.0, -1.0] * 12 + [0.0])  # rows 1-3 over rough ground
+    obs["teacher"] = x
+    a, b, c = teacher.primary.primary(obs), teacher.fallback(obs), teacher.primary.fallback(obs)
+    got = teacher(obs)
+    torch.testing.assert_close(got[0], a[0])
+    torch.testing.assert_close(got[1:3], c[1:3])
+    torch.testing.assert_close(got[3], b[3])
+    assert not torch.equal(a, c)
+    resumed = TrainingRun(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train, iterations=2, resume=True))
+    resumed.setup()
+    torch.testing.assert_close(resumed.runner.alg.teacher.primary.fallback(obs), c)
+    with pytest.raises(ValueError, match="rough-teacher"):
+        no_fallback = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, fallback_teacher=None))
+        TrainingRun(spec(tmp_path / "s2", role="student", teacher=tmp_path / "a", train=no_fallback)).setup()

@@ -242,6 +242,15 @@ class DistillationConfig:
     """With ``fallback_teacher``: it labels every state whose trunk is tilted more than this
     from upright (deg), the first teacher the rest; a rule of the current state alone
     (``selfright.policies.stall.TiltSwitch``). 0 = the stall rule."""
+    rough_teacher: str | None = None
+    """With ``fallback_teacher``: a third teacher checkpoint that labels, instead of the first,
+    the states the first would label where the teacher's height scan spreads over
+    ``rough_scan_std_m`` (rough ground; ``selfright.policies.stall.ScanSwitch``). The rough
+    context's composite of the `tall` flat teacher (level 4) and a teacher trained on rough
+    ground (levels 8 and 12) beats either alone (docs/training.md). It needs the first
+    teacher's network; labels convert between ``stand`` / ``tall`` as the fallback's do."""
+    rough_scan_std_m: float = 0.027
+    """With ``rough_teacher``: the height scan's standard deviation (m) above which it labels."""
     fallback_s: float = 2.0
     """How long the fallback teacher labels after a stall (s)."""
     stall_s: float = 0.5

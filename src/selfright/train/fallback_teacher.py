@@ -21,7 +21,7 @@ import torch
 from torch import nn
 
 from selfright.policies.reference import in_own_units
-from selfright.policies.stall import StallSwitch, TiltSwitch
+from selfright.policies.stall import ScanSwitch, StallSwitch, TiltSwitch
 
 
 class FallbackTeacher(nn.Module):
@@ -34,7 +34,7 @@ class FallbackTeacher(nn.Module):
     """
 
     def __init__(
-        self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: StallSwitch | TiltSwitch,
+        self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: StallSwitch | TiltSwitch | ScanSwitch,
         fallback_offset: torch.Tensor | None = None,
     ):
         super().__init__()
@@ -61,6 +61,8 @@ class FallbackTeacher(nn.Module):
         if dones is not None:
             self.switch.reset(dones.bool().cpu())
             self.fresh |= dones.bool().cpu()
+        if isinstance(self.primary, FallbackTeacher):  # a nested composite (``rough_teacher``)
+            self.primary.reset(dones)
 
     def get_hidden_state(self):
         return None

@@ -28,13 +28,14 @@ from pathlib import Path
 from typing import Any
 
 import torch
+from torch import nn
 from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m
 from selfright.policies.reference import reference_offset
-from selfright.policies.stall import hand_over_rule
+from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.train.checkpoints import (
     CHECKPOINT_RE,
     META_FILE,
@@ -193,6 +194,10 @@ class TrainingRun:
             raise ValueError("--train.episode.upright-masked masks PPO's overridden steps: it needs a teacher run "
                              "with --train.episode.upright-policy or --train.episode.tilted-policy")
         d = s.train.distillation
+        if d.rough_teacher is not None and (s.role != "student" or d.fallback_teacher is None):
+            raise ValueError("--train.distillation.rough-teacher shares the upright states with the --teacher of a student "
+                             "run that has --train.distillation.fallback-teacher")
+        d = s.train.distillation
         if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
             raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
                              "no --train.distillation.student-gru)")
@@ -299,26 +304,40 @@ class TrainingRun:
         unless a resumed checkpoint will."""
         s, alg = self.spec, self.runner.alg
         d = s.train.distillation
-        ckpt = latest_checkpoint(path)
-        primary, second = alg.teacher, copy.deepcopy(alg.teacher)
-        weights = torch.load(ckpt, map_location=s.device, weights_only=False).get("actor_state_dict")
-        if weights is None:
-            raise ValueError(f"--train.distillation.fallback-teacher {path}: not a teacher checkpoint")
-        try:
-            second.load_state_dict(weights)
-            if load_primary:
+        primary = alg.teacher
+        if load_primary:
+            try:
                 primary.load_state_dict(torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)["actor_state_dict"])
-        except RuntimeError as e:
-            raise ValueError(f"--train.distillation.fallback-teacher {path} must have the --teacher's network: {e}") from None
+            except RuntimeError as e:
+                raise ValueError(f"--teacher {self.teacher_ckpt}: {e}") from None
         robot = self.env.env.robot
+        if d.rough_teacher is not None:  # (its weights are in a resumed checkpoint too, as the fallback's)
+            rough, rough_offset = self._second_teacher(Path(d.rough_teacher), "rough-teacher")
+            primary = FallbackTeacher(primary, rough, s.num_envs, ScanSwitch(d.rough_scan_std_m, robot.num_joints),
+                                      rough_offset)
+        second, offset = self._second_teacher(path, "fallback-teacher")
         switch = hand_over_rule(d.fallback_tilt_deg, d.stall_s, d.fallback_s, s.bench.sim.control_dt_s,
                                 goal_height_m(s.bench.goal, robot.leg_length_m), robot.num_joints)
-        offset = self._fallback_offset(ckpt, robot)
         composite = FallbackTeacher(primary, second, s.num_envs, switch, offset).to(s.device).eval()
         alg.teacher = alg._raw_teacher = composite
         alg.teacher_loaded = True
 
-    def _fallback_offset(self, ckpt: Path, robot) -> torch.Tensor | None:
+    def _second_teacher(self, path: Path, flag: str) -> tuple[nn.Module, torch.Tensor | None]:
+        """A copy of the ``--teacher``'s network with ``path``'s weights, and the offset that
+        converts its actions into the student's units (``_fallback_offset``)."""
+        s = self.spec
+        ckpt = latest_checkpoint(path)
+        net = copy.deepcopy(self.runner.alg.teacher)
+        weights = torch.load(ckpt, map_location=s.device, weights_only=False).get("actor_state_dict")
+        if weights is None:
+            raise ValueError(f"--train.distillation.{flag} {path}: not a teacher checkpoint")
+        try:
+            net.load_state_dict(weights)
+        except RuntimeError as e:
+            raise ValueError(f"--train.distillation.{flag} {path} must have the --teacher's network: {e}") from None
+        return net, self._fallback_offset(ckpt, self.env.env.robot, flag)
+
+    def _fallback_offset(self, ckpt: Path, robot, flag: str = "fallback-teacher") -> torch.Tensor | None:
         """(fallback's reference pose − the student's) / scale when the fallback teacher was
         trained around another fixed pose than ``--action-reference`` (its labels are shifted
         into the student's units); None when they are the same. Refuses what cannot be converted."""
@@ -327,7 +346,7 @@ class TrainingRun:
         try:
             offset = reference_offset(robot, trained, self.spec.bench.action)
         except ValueError as e:
-            raise ValueError(f"--train.distillation.fallback-teacher {ckpt.parent}: {e}; only fixed poses (stand / tall) "
+            raise ValueError(f"--train.distillation.{flag} {ckpt.parent}: {e}; only fixed poses (stand / tall) "
                              "at the student's scale convert") from None
         return None if offset is None else torch.as_tensor(offset, dtype=torch.float32)
 

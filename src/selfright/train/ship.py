@@ -113,7 +113,12 @@ def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
     if not fb:
         return None, ""
     if d.get("fallback_tilt_deg", 0.0) > 0:
-        return fb, f" where the trunk is upright within {d['fallback_tilt_deg']:g}°, and from `{fb}` where it is tilted more"
+        rough = d.get("rough_teacher")
+        upright = f" where the trunk is upright within {d['fallback_tilt_deg']:g}°"
+        if rough:
+            upright += (f" over smooth ground, from `{rough}` where it is upright and the height scan spreads over "
+                        f"{d.get('rough_scan_std_m', 0.027):g} m")
+        return fb, upright + f", and from `{fb}` where it is tilted more"
     return fb, f" except for {d.get('fallback_s')} s after each stall, labelled by `{fb}`"
 
 
