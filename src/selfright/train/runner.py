@@ -197,7 +197,6 @@ class TrainingRun:
         if d.rough_teacher is not None and (s.role != "student" or d.fallback_teacher is None):
             raise ValueError("--train.distillation.rough-teacher shares the upright states with the --teacher of a student "
                              "run that has --train.distillation.fallback-teacher")
-        d = s.train.distillation
         if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
             raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
                              "no --train.distillation.student-gru)")
