@@ -100,8 +100,7 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if a.fallback_s > 0 or a.tilt_deg > 0:
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
         rule = hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar, release_deg=a.release_deg)
-        return Fallback(*members, rule,
-                        feed_both=a.feed_both)
+        return Fallback(*members, rule, feed_both=a.feed_both)
     return members[0] if len(members) == 1 else MeanOf(members)
 
 

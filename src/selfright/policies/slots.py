@@ -9,8 +9,11 @@ import torch
 
 
 def slot_index(ids: np.ndarray | torch.Tensor) -> torch.Tensor:
-    """Slot ids (k,) as a CPU index tensor."""
-    return torch.as_tensor(ids, dtype=torch.long).cpu()
+    """Slot ids (k,), or a bool mask over all slots, as a CPU index tensor."""
+    t = torch.as_tensor(ids)
+    if t.dtype == torch.bool:
+        t = t.nonzero().flatten()
+    return t.to(dtype=torch.long, device="cpu")
 
 
 def grown(buf: torch.Tensor, slots: torch.Tensor, fill: float | bool = 0) -> torch.Tensor:

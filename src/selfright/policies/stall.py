@@ -56,9 +56,6 @@ class TiltSwitch:
         """Clear the hysteresis mode of ``slots`` (indices, or a bool mask over all slots)."""
         if self._cos_release is None:
             return
-        slots = torch.as_tensor(slots)
-        if slots.dtype == torch.bool:
-            slots = slots.nonzero().flatten()
         t = slot_index(slots)
         self._caught = grown(self._caught, t, False).index_fill(0, t, False)
 
@@ -121,9 +118,6 @@ class StallSwitch:
 
     def reset(self, slots: torch.Tensor) -> None:
         """Zero the counters of ``slots`` (indices, or a bool mask over all slots)."""
-        slots = torch.as_tensor(slots)
-        if slots.dtype == torch.bool:
-            slots = slots.nonzero().flatten()
         t = self._slots(slots)
         self._still = self._still.index_fill(0, t, 0)  # out of place: rollouts may run in inference mode
         self._left = self._left.index_fill(0, t, 0)

@@ -445,7 +445,7 @@ class TrainingRun:
         if not self.spec.quiet:
             print(
                 f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}"
-                + (f" under {partner.policy} ({partner.acts_when})" if partner else "")
+                + (f" {partner.label}" if partner else "")
                 + f": {score.successes}/{score.episodes} "
                 f"= {100 * score.success_rate:.1f} % (seed {v.seed}, {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),

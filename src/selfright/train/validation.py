@@ -70,6 +70,11 @@ class Partner:
     """``"upright"`` (within ``tilt_deg`` of upright) or ``"tilted"`` (beyond it)."""
     tilt_deg: float
 
+    @property
+    def label(self) -> str:
+        """How results and progress lines name the partner."""
+        return f"under {self.policy} ({self.acts_when})"
+
 
 def evaluate_checkpoint(
     ckpt: Path,
@@ -98,7 +103,8 @@ def evaluate_checkpoint(
         upright, tilted = (other, policy) if partner.acts_when == "upright" else (policy, other)
         policy = Fallback(upright, tilted, TiltSwitch(partner.tilt_deg))
     res = evaluate_grid(
-        policy, policy_name=ckpt.name + (f" under {partner.policy} ({partner.acts_when})" if partner else ""), grid=grid, episodes=episodes, seed=seed, out_dir=out_dir, cfg=bench, progress=False
+        policy, policy_name=ckpt.name + (f" {partner.label}" if partner else ""), grid=grid, episodes=episodes, seed=seed,
+        out_dir=out_dir, cfg=bench, progress=False,
     )
     o = res.summary["overall"]
     return Score(iteration, env_steps, int(o["successes"]), int(o["n"]))
