@@ -32,7 +32,7 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import ScanSwitch, hand_over_rule
-from selfright.policies.variants import Blinded, EstimatedVelocity, Fallback, MeanOf, Noisy, trained_std
+from selfright.policies.variants import Blinded, EstimatedVelocity, Fallback, MeanOf, Noisy, Smoothed, trained_std
 from selfright.robots import get_robot
 
 
@@ -75,9 +75,17 @@ class Args:
     stall_below_bar: bool = False
     """Also hand over when the robot stands or sits still upright with its trunk under the
     goal bar (read from the privileged teacher observation)."""
+    smooth: float = 0.0
+    """Low-pass the final policy's (composite's) actions per episode: a_t = β a_(t−1) + (1 − β) π(o_t)
+    with this β (``selfright.policies.variants.Smoothed``); 0 = off."""
 
 
 def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
+    policy = _make_variant(a, cfg)
+    return Smoothed(policy, a.smooth) if a.smooth > 0 else policy
+
+
+def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if not a.policies:
         raise ValueError("give --policies")
     if a.noise_scale > 0:
@@ -138,6 +146,7 @@ def main(a: Args) -> None:
         joined = " + ".join(a.policies)
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
     name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
+    name += f" (low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -363,3 +363,25 @@ def test_blinded_teacher_sees_fixed_privileged_blocks():
     assert torch.equal(got[:, keep], x[:, keep])  # the rest untouched, the caller's tensor too
     with pytest.raises(ValueError, match="cannot blind"):
         Blinded(_Echo(), ["scan"])
+
+
+def test_smoothed_policy_low_passes_each_slot_from_its_episode_start():
+    from selfright.policies.variants import Smoothed
+
+    class _Echo(Policy):
+        def act(self, obs, ids, contexts):
+            return obs["student"][:, :12].clone()
+
+    def obs(*values):
+        return {"student": torch.tensor(values, dtype=torch.float32).unsqueeze(1).repeat(1, 42)}
+
+    p = Smoothed(_Echo(), 0.75)
+    ids = np.array([3, 5])
+    p.reset(ids)
+    assert p.act(obs(4.0, -4.0), ids, [None] * 2)[:, 0].tolist() == [4.0, -4.0]  # the first action as is
+    assert p.act(obs(0.0, 0.0), ids, [None] * 2)[:, 0].tolist() == [3.0, -3.0]  # 0.75 of the last
+    assert p.act(obs(0.0), ids[1:], [None])[:, 0].tolist() == [-2.25]  # slots are independent
+    p.reset(ids[:1])  # a new episode in slot 3 starts afresh; slot 5 keeps its filter
+    assert p.act(obs(1.0, 1.0), ids, [None] * 2)[:, 0].tolist() == [1.0, -1.4375]
+    with pytest.raises(ValueError, match="beta"):
+        Smoothed(_Echo(), 1.0)

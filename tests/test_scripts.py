@@ -230,7 +230,7 @@ def tiny_checkpoint(tmp_path: Path) -> Path:
     return ckpt
 
 
-def test_policy_variants_noise_is_seeded_and_an_ensemble_of_one_policy_is_that_policy(tmp_path, monkeypatch, capsys):
+def test_policy_variants_noise_is_seeded_an_ensemble_of_one_policy_is_that_policy_and_smoothing_acts(tmp_path, monkeypatch, capsys):
     import csv
 
     def rows(out):
@@ -242,10 +242,13 @@ def test_policy_variants_noise_is_seeded_and_an_ensemble_of_one_policy_is_that_p
     outs = {}
     for tag, extra in [("a", ["--policies", str(ckpt), "--noise-scale", "1"]), ("b", ["--policies", str(ckpt), "--noise-scale", "1"]),
                        ("mean", ["--policies", str(ckpt)]), ("zero", ["--policies", "zero"]), ("zz", ["--policies", "zero", "zero"]),
-                       ("fb", ["--policies", "zero", "random", "--fallback-s", "2"])]:
+                       ("fb", ["--policies", "zero", "random", "--fallback-s", "2"]),
+                       ("rand", ["--policies", "random"]), ("smooth", ["--policies", "random", "--smooth", "0.9"])]:
         outs[tag] = tmp_path / tag
         run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
-    assert "noise x1" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "noise x1" in printed and "low-passed, beta 0.9" in printed
+    assert rows(outs["smooth"]) != rows(outs["rand"])  # the filter changes what the random policy does
     assert rows(outs["a"]) == rows(outs["b"]) and rows(outs["a"]) != rows(outs["mean"])
     assert rows(outs["zz"]) == rows(outs["zero"])
     assert rows(outs["fb"]) != rows(outs["zero"])  # the held pose stalls tilted; random actions take over

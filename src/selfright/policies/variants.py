@@ -1,6 +1,6 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
 actions from its training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, and one that hands over to a second policy when it stalls or
+mean of its members' actions, one whose actions are low-passed, and one that hands over to a second policy when it stalls or
 while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labelled the shipped
 ``flat`` student's distillation)."""
 
@@ -115,6 +115,34 @@ class Noisy(Policy):
         a = self.inner.act(obs, ids, contexts)
         z = np.stack([self._rng[i].standard_normal(a.shape[1]) for i in np.asarray(ids).tolist()])
         return a + self.std * torch.as_tensor(z, dtype=torch.float32)
+
+
+class Smoothed(Policy):
+    """``inner``'s actions through a first-order low-pass per slot: a_t = β a_(t−1) + (1 − β) π(o_t),
+    started at the episode's first action. Asks whether gentler joint targets (a slower, less
+    violent escape) would keep a robot on the slope; ``scripts/policy_variants.py --smooth``."""
+
+    def __init__(self, inner: Policy, beta: float):
+        if not 0.0 <= beta < 1.0:
+            raise ValueError(f"smoothing beta must lie in [0, 1), got {beta}")
+        self.inner, self.beta = inner, float(beta)
+        self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
+        self.name = f"{inner.name} low-passed (beta {beta:g})"
+        self._last: dict[int, torch.Tensor] = {}
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.inner.reset(ids, seeds)
+        for i in np.asarray(ids).tolist():
+            self._last.pop(i, None)
+
+    def act(self, obs, ids, contexts):
+        a = self.inner.act(obs, ids, contexts)
+        out = a.clone()
+        for row, i in enumerate(np.asarray(ids).tolist()):
+            if i in self._last:
+                out[row] = self.beta * self._last[i].to(a.device) + (1.0 - self.beta) * a[row]
+            self._last[i] = out[row].detach().clone()
+        return out
 
 
 def trained_std(checkpoint: str) -> torch.Tensor:
