@@ -76,13 +76,19 @@ class Args:
     """Also hand over when the robot stands or sits still upright with its trunk under the
     goal bar (read from the privileged teacher observation)."""
     smooth: float = 0.0
-    """Low-pass the final policy's (composite's) actions per episode: a_t = β a_(t−1) + (1 − β) π(o_t)
-    with this β (``selfright.policies.variants.Smoothed``); 0 = off."""
+    """Low-pass actions per episode: a_t = β a_(t−1) + (1 − β) π(o_t) with this β
+    (``selfright.policies.variants.Smoothed``); 0 = off."""
+    smooth_last: bool = False
+    """With ``smooth``: low-pass only the last policy of a composite (the tilted one: the escape),
+    which then sees every step (``feed_both``) so its filter runs on between hand-overs; off =
+    low-pass the composite's actions."""
 
 
 def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
+    if a.smooth_last and not (a.smooth > 0 and (a.tilt_deg > 0 or a.fallback_s > 0)):
+        raise ValueError("--smooth-last takes --smooth and a composite (--tilt-deg or --fallback-s)")
     policy = _make_variant(a, cfg)
-    return Smoothed(policy, a.smooth) if a.smooth > 0 else policy
+    return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
 
 
 def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
@@ -108,7 +114,9 @@ def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if a.fallback_s > 0 or a.tilt_deg > 0:
         bar = goal_height_m(cfg.goal, get_robot(cfg.robot.name).leg_length_m) if a.stall_below_bar else None
         rule = hand_over_rule(a.tilt_deg, a.stall_s, a.fallback_s, cfg.sim.control_dt_s, bar, release_deg=a.release_deg)
-        return Fallback(*members, rule, feed_both=a.feed_both)
+        if a.smooth_last:
+            members[-1] = Smoothed(members[-1], a.smooth)
+        return Fallback(*members, rule, feed_both=a.feed_both or a.smooth_last)
     return members[0] if len(members) == 1 else MeanOf(members)
 
 
@@ -146,7 +154,7 @@ def main(a: Args) -> None:
         joined = " + ".join(a.policies)
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
     name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
-    name += f" (low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
+    name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -243,12 +243,16 @@ def test_policy_variants_noise_is_seeded_an_ensemble_of_one_policy_is_that_polic
     for tag, extra in [("a", ["--policies", str(ckpt), "--noise-scale", "1"]), ("b", ["--policies", str(ckpt), "--noise-scale", "1"]),
                        ("mean", ["--policies", str(ckpt)]), ("zero", ["--policies", "zero"]), ("zz", ["--policies", "zero", "zero"]),
                        ("fb", ["--policies", "zero", "random", "--fallback-s", "2"]),
-                       ("rand", ["--policies", "random"]), ("smooth", ["--policies", "random", "--smooth", "0.9"])]:
+                       ("rand", ["--policies", "random"]), ("smooth", ["--policies", "random", "--smooth", "0.9"]),
+                       ("fb_smooth", ["--policies", "zero", "random", "--fallback-s", "2", "--smooth", "0.9", "--smooth-last"])]:
         outs[tag] = tmp_path / tag
         run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
     printed = capsys.readouterr().out
     assert "noise x1" in printed and "low-passed, beta 0.9" in printed
     assert rows(outs["smooth"]) != rows(outs["rand"])  # the filter changes what the random policy does
+    assert rows(outs["fb_smooth"]) != rows(outs["fb"])  # the same filter on the fallback alone
+    with pytest.raises(SystemExit, match="--smooth-last takes"):
+        run_script("policy_variants.py", [*common, "--policies", "zero", "--smooth", "0.5", "--smooth-last", "--out", str(tmp_path / "y")], monkeypatch)
     assert rows(outs["a"]) == rows(outs["b"]) and rows(outs["a"]) != rows(outs["mean"])
     assert rows(outs["zz"]) == rows(outs["zero"])
     assert rows(outs["fb"]) != rows(outs["zero"])  # the held pose stalls tilted; random actions take over
