@@ -1,6 +1,6 @@
 """Per-slot buffers of deployed policies: a tensor with one row per env slot that grows to
 the largest slot index seen (evaluation hands out slot ids; training has a fixed number).
-Shared by ``ObsHistory``, ``HiddenStates`` and ``StallSwitch``."""
+Shared by ``ObsHistory``, ``HiddenStates``, ``StallSwitch``, ``TiltSwitch`` and ``Smoothed``."""
 
 from __future__ import annotations
 

@@ -16,6 +16,7 @@ from selfright.env.observations import privileged_columns
 from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.history import ObsHistory
+from selfright.policies.slots import grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
@@ -122,27 +123,34 @@ class Smoothed(Policy):
     started at the episode's first action. Asks whether gentler joint targets (a slower, less
     violent escape) would keep a robot on the slope; ``scripts/policy_variants.py --smooth``."""
 
-    def __init__(self, inner: Policy, beta: float):
+    def __init__(self, inner: Policy, beta: float, num_joints: int = 12):
         if not 0.0 <= beta < 1.0:
             raise ValueError(f"smoothing beta must lie in [0, 1), got {beta}")
         self.inner, self.beta = inner, float(beta)
         self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
         self.name = f"{inner.name} low-passed (beta {beta:g})"
-        self._last: dict[int, torch.Tensor] = {}
+        self._last = torch.zeros(0, num_joints)
+        self._fresh = torch.zeros(0, dtype=torch.bool)
+        """Slots whose next action starts an episode (passes unfiltered)."""
+
+    def _slots(self, ids: np.ndarray) -> torch.Tensor:
+        """``ids`` as an index tensor, the buffers grown to hold every one of them."""
+        t = slot_index(ids)
+        self._last, self._fresh = grown(self._last, t), grown(self._fresh, t, True)
+        return t
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.inner.reset(ids, seeds)
-        for i in np.asarray(ids).tolist():
-            self._last.pop(i, None)
+        t = self._slots(ids)  # before reading self._fresh: it may grow
+        self._fresh[t] = True
 
     def act(self, obs, ids, contexts):
         a = self.inner.act(obs, ids, contexts)
-        out = a.clone()
-        for row, i in enumerate(np.asarray(ids).tolist()):
-            if i in self._last:
-                out[row] = self.beta * self._last[i].to(a.device) + (1.0 - self.beta) * a[row]
-            self._last[i] = out[row].detach().clone()
-        return out
+        t = self._slots(ids)
+        x = a.detach().to(self._last.dtype).cpu()
+        out = torch.where(self._fresh[t][:, None], x, self.beta * self._last[t] + (1.0 - self.beta) * x)
+        self._last[t], self._fresh[t] = out, False
+        return out.to(a.device, a.dtype)
 
 
 def trained_std(checkpoint: str) -> torch.Tensor:
