@@ -284,3 +284,20 @@ def test_stance_under_noise_prints_shares_per_checkpoint_and_scale(tmp_path, mon
     lines = [ln.split() for ln in capsys.readouterr().out.splitlines()[1:]]
     assert [ln[1] for ln in lines] == ["0.00", "1.00"]
     assert all(0.0 <= float(x) <= 1.0 for ln in lines for x in ln[2:4])
+
+
+def test_stall_rotation_hands_a_stalled_robot_over(tmp_path, monkeypatch, capsys):
+    import csv
+
+    def rows(out):
+        with (out / "episodes.csv").open() as fh:
+            return [(r["episode"], r["success"], r["ttr_s"], r["energy_j"]) for r in csv.DictReader(fh)]
+
+    common = ["--grid", "tiny", "--episodes", "1", "--seed", "3", "--first", "zero"]
+    for tag, extra in [("same", ["--second", "zero"]), ("rand", ["--second", "random"]),
+                       ("kin", ["--second", "random", "--kinematic"]), ("esc", ["--second", "zero", "--escape", "random"])]:
+        run_script("stall_rotation.py", [*common, *extra, "--out", str(tmp_path / tag)], monkeypatch)
+    assert "then (stalled 0.5 s, for 1 s) random" in capsys.readouterr().out
+    assert rows(tmp_path / "rand") != rows(tmp_path / "same")  # the held pose stalls; random actions take over
+    assert rows(tmp_path / "kin") != rows(tmp_path / "same")  # sensors only: tilted stalls are seen without the teacher
+    assert rows(tmp_path / "esc") != rows(tmp_path / "same")  # the escape acts while tilted

@@ -50,6 +50,12 @@ def student_obs(rs: RobotState, nominal: torch.Tensor, prev_action: torch.Tensor
     )
 
 
+def joint_pos_columns(num_joints: int) -> slice:
+    """Columns of the joint angles (relative to the robot's ``nominal_pose``) in the student
+    observation (and in the teacher's, which starts with it)."""
+    return slice(6, 6 + num_joints)
+
+
 def joint_vel_columns(num_joints: int) -> slice:
     """Columns of the joint velocities (× ``JOINT_VEL_SCALE``) in the student observation (and
     in the teacher's, which starts with it)."""

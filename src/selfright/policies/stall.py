@@ -12,7 +12,8 @@ one-frame student can learn the composite it labels.
 ``StallSwitch``: the second takes over once the robot has lain still long enough, for a
 while. Stalled = tilted more than ``TILT_DEG`` from upright (the IMU's projected gravity), or, with a
 bar, upright with the trunk under it (the teacher observation's height, a privileged
-reading); with the joint velocities' norm under ``JOINT_SPEED_RAD_S`` and the trunk's angular
+reading, or with ``robot`` the height its leg kinematics give: ``KinematicHeight``, sensors
+only); with the joint velocities' norm under ``JOINT_SPEED_RAD_S`` and the trunk's angular
 speed under ``ANG_SPEED_RAD_S``; for ``stall_steps`` control steps in a row. The second
 policy then acts for ``hand_steps`` steps, after which the count starts again.
 """
@@ -23,8 +24,12 @@ import math
 
 import torch
 
-from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, privileged_columns, teacher_height_column
+from selfright.env.observations import (
+    JOINT_VEL_SCALE, joint_pos_columns, joint_vel_columns, privileged_columns, teacher_height_column,
+)
 from selfright.policies.slots import grown, slot_index
+from selfright.robots.kinematics import KinematicHeight
+from selfright.robots.spec import RobotSpec
 
 TILT_DEG = 30.0
 JOINT_SPEED_RAD_S = 1.0
@@ -100,13 +105,21 @@ class StallSwitch:
     """Per-slot counters of the hand-over rule. Slots are indices ``0..``; the counters grow
     to the largest slot seen."""
 
-    def __init__(self, stall_steps: int, hand_steps: int, bar_m: float | None = None, num_joints: int = 12):
-        self.needs_teacher = bar_m is not None
+    def __init__(
+        self, stall_steps: int, hand_steps: int, bar_m: float | None = None, num_joints: int = 12,
+        robot: RobotSpec | None = None,
+    ):
+        """``robot``: with ``bar_m``, read the trunk height from the student observation (its
+        projected gravity and joint angles, through the robot's leg kinematics) instead of the
+        teacher observation's privileged height."""
+        self.needs_teacher = bar_m is not None and robot is None
         self.when = "stalled"
         self.stall_steps, self.hand_steps, self.bar_m = stall_steps, hand_steps, bar_m
         self._tilted = TiltSwitch(TILT_DEG)
         self.qd = joint_vel_columns(num_joints)
         self.height = teacher_height_column(num_joints)
+        self._kinematic = KinematicHeight(robot) if bar_m is not None and robot is not None else None
+        self._nominal = torch.as_tensor(robot.nominal_pose, dtype=torch.float32) if robot is not None else None
         self._still = torch.zeros(0, dtype=torch.long)
         self._left = torch.zeros(0, dtype=torch.long)
 
@@ -129,7 +142,7 @@ class StallSwitch:
         x = x.detach().cpu()
         upright = ~self._tilted.step(x, slots)
         if self.bar_m is not None:
-            upright &= x[:, self.height] >= self.bar_m  # upright but low is a stall too
+            upright &= self._trunk_height(x) >= self.bar_m  # upright but low is a stall too
         still = (x[:, self.qd].norm(dim=1) / JOINT_VEL_SCALE < JOINT_SPEED_RAD_S) & (x[:, 3:6].norm(dim=1) < ANG_SPEED_RAD_S)
         count, left = self._still[slots], self._left[slots]
         handing = left > 0
@@ -141,6 +154,14 @@ class StallSwitch:
         self._still = self._still.index_copy(0, slots, count)
         self._left = self._left.index_copy(0, slots, left)
         return handing | start
+
+
+    def _trunk_height(self, x: torch.Tensor) -> torch.Tensor:
+        """(k,) trunk height (m): the teacher observation's, or the leg kinematics' estimate."""
+        if self._kinematic is None:
+            return x[:, self.height]
+        q = x[:, joint_pos_columns(len(self._nominal))] + self._nominal
+        return self._kinematic(x[:, 0:3], q)
 
 
 def hand_over_rule(
