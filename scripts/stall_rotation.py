@@ -66,7 +66,7 @@ def rotation(a: Args, cfg: BenchmarkConfig) -> Policy:
         return Fallback(p, make_policy(a.escape, cfg), TiltSwitch(a.tilt_deg)) if a.escape else p
 
     robot = get_robot(cfg.robot.name)
-    bar = (a.bar_m or goal_height_m(cfg.goal, robot.leg_length_m)) if a.below_bar else None
+    bar = (goal_height_m(cfg.goal, robot.leg_length_m) if a.bar_m is None else a.bar_m) if a.below_bar else None
     dt = cfg.sim.control_dt_s
     switch = StallSwitch(round(a.stall_s / dt), round(a.hand_s / dt), bar, robot=robot if a.kinematic else None)
     return Fallback(half(a.first), half(a.second), switch)

@@ -17,6 +17,14 @@ def run_script(name: str, args: list[str], monkeypatch: pytest.MonkeyPatch) -> N
     runpy.run_path(str(SCRIPTS / name), run_name="__main__")
 
 
+def episode_rows(out: Path) -> list[tuple[str, str, str, str]]:
+    """(episode, success, TTR, energy) of each row of an evaluation's ``episodes.csv``."""
+    import csv
+
+    with (out / "episodes.csv").open() as fh:
+        return [(r["episode"], r["success"], r["ttr_s"], r["energy_j"]) for r in csv.DictReader(fh)]
+
+
 def failure_classes(out: str) -> list[int]:
     """Episode counts of ``failure_modes.py``'s classes (one per episode; not the bracketed markers)."""
     return [int(line.split()[-1]) for line in out.splitlines()[1:] if line.startswith("  ")
@@ -231,12 +239,6 @@ def tiny_checkpoint(tmp_path: Path) -> Path:
 
 
 def test_policy_variants_noise_is_seeded_an_ensemble_of_one_policy_is_that_policy_and_smoothing_acts(tmp_path, monkeypatch, capsys):
-    import csv
-
-    def rows(out):
-        with (out / "episodes.csv").open() as fh:
-            return [(r["episode"], r["success"], r["ttr_s"], r["energy_j"]) for r in csv.DictReader(fh)]
-
     ckpt = tiny_checkpoint(tmp_path)
     common = ["--grid", "tiny", "--episodes", "1", "--seed", "3"]
     outs = {}
@@ -249,13 +251,13 @@ def test_policy_variants_noise_is_seeded_an_ensemble_of_one_policy_is_that_polic
         run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
     printed = capsys.readouterr().out
     assert "noise x1" in printed and "low-passed, beta 0.9" in printed
-    assert rows(outs["smooth"]) != rows(outs["rand"])  # the filter changes what the random policy does
-    assert rows(outs["fb_smooth"]) != rows(outs["fb"])  # the same filter on the fallback alone
+    assert episode_rows(outs["smooth"]) != episode_rows(outs["rand"])  # the filter changes what the random policy does
+    assert episode_rows(outs["fb_smooth"]) != episode_rows(outs["fb"])  # the same filter on the fallback alone
     with pytest.raises(SystemExit, match="--smooth-last takes"):
         run_script("policy_variants.py", [*common, "--policies", "zero", "--smooth", "0.5", "--smooth-last", "--out", str(tmp_path / "y")], monkeypatch)
-    assert rows(outs["a"]) == rows(outs["b"]) and rows(outs["a"]) != rows(outs["mean"])
-    assert rows(outs["zz"]) == rows(outs["zero"])
-    assert rows(outs["fb"]) != rows(outs["zero"])  # the held pose stalls tilted; random actions take over
+    assert episode_rows(outs["a"]) == episode_rows(outs["b"]) and episode_rows(outs["a"]) != episode_rows(outs["mean"])
+    assert episode_rows(outs["zz"]) == episode_rows(outs["zero"])
+    assert episode_rows(outs["fb"]) != episode_rows(outs["zero"])  # the held pose stalls tilted; random actions take over
     with pytest.raises(SystemExit, match="no state-independent action std"):
         run_script("policy_variants.py", [*common, "--policies", "zero", "--noise-scale", "1", "--out", str(tmp_path / "x")], monkeypatch)
 
@@ -287,17 +289,11 @@ def test_stance_under_noise_prints_shares_per_checkpoint_and_scale(tmp_path, mon
 
 
 def test_stall_rotation_hands_a_stalled_robot_over(tmp_path, monkeypatch, capsys):
-    import csv
-
-    def rows(out):
-        with (out / "episodes.csv").open() as fh:
-            return [(r["episode"], r["success"], r["ttr_s"], r["energy_j"]) for r in csv.DictReader(fh)]
-
     common = ["--grid", "tiny", "--episodes", "1", "--seed", "3", "--first", "zero"]
     for tag, extra in [("same", ["--second", "zero"]), ("rand", ["--second", "random"]),
                        ("kin", ["--second", "random", "--kinematic"]), ("esc", ["--second", "zero", "--escape", "random"])]:
         run_script("stall_rotation.py", [*common, *extra, "--out", str(tmp_path / tag)], monkeypatch)
     assert "then (stalled 0.5 s, for 1 s) random" in capsys.readouterr().out
-    assert rows(tmp_path / "rand") != rows(tmp_path / "same")  # the held pose stalls; random actions take over
-    assert rows(tmp_path / "kin") != rows(tmp_path / "same")  # sensors only: tilted stalls are seen without the teacher
-    assert rows(tmp_path / "esc") != rows(tmp_path / "same")  # the escape acts while tilted
+    assert episode_rows(tmp_path / "rand") != episode_rows(tmp_path / "same")  # the held pose stalls; random actions take over
+    assert episode_rows(tmp_path / "kin") != episode_rows(tmp_path / "same")  # sensors only: tilted stalls are seen without the teacher
+    assert episode_rows(tmp_path / "esc") != episode_rows(tmp_path / "same")  # the escape acts while tilted

@@ -141,9 +141,11 @@ class StallSwitch:
         slots = self._slots(slots)
         x = x.detach().cpu()
         upright = ~self._tilted.step(x, slots)
-        if self.bar_m is not None:
-            upright &= self._trunk_height(x) >= self.bar_m  # upright but low is a stall too
         still = (x[:, self.qd].norm(dim=1) / JOINT_VEL_SCALE < JOINT_SPEED_RAD_S) & (x[:, 3:6].norm(dim=1) < ANG_SPEED_RAD_S)
+        if self.bar_m is not None:  # upright but low is a stall too; only a still robot's height counts
+            check = upright & still
+            if check.any():
+                upright[check] = self._trunk_height(x[check]) >= self.bar_m
         count, left = self._still[slots], self._left[slots]
         handing = left > 0
         left = torch.where(handing, left - 1, left)
@@ -154,7 +156,6 @@ class StallSwitch:
         self._still = self._still.index_copy(0, slots, count)
         self._left = self._left.index_copy(0, slots, left)
         return handing | start
-
 
     def _trunk_height(self, x: torch.Tensor) -> torch.Tensor:
         """(k,) trunk height (m): the teacher observation's, or the leg kinematics' estimate."""
