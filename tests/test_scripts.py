@@ -297,3 +297,10 @@ def test_stall_rotation_hands_a_stalled_robot_over(tmp_path, monkeypatch, capsys
     assert episode_rows(tmp_path / "rand") != episode_rows(tmp_path / "same")  # the held pose stalls; random actions take over
     assert episode_rows(tmp_path / "kin") != episode_rows(tmp_path / "same")  # sensors only: tilted stalls are seen without the teacher
     assert episode_rows(tmp_path / "esc") != episode_rows(tmp_path / "same")  # the escape acts while tilted
+
+
+def test_kinematic_height_reports_the_error_and_final_readings(monkeypatch, capsys):
+    run_script("kinematic_height.py", ["--policy", "flat", "--grid", "flat", "--episodes", "4"], monkeypatch)
+    head = capsys.readouterr().out.splitlines()[0]
+    mean_m = float(head.split("mean ")[1].split(" m")[0])
+    assert 0.0 < mean_m < 0.03  # feet sink a little into the contact: the estimate reads a bit high
