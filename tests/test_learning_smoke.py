@@ -480,3 +480,30 @@ def test_student_distils_from_a_rough_ground_teacher_where_the_scan_spreads(tmp_
     with pytest.raises(ValueError, match="rough-teacher"):
         no_fallback = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, fallback_teacher=None))
         TrainingRun(spec(tmp_path / "s2", role="student", teacher=tmp_path / "a", train=no_fallback)).setup()
+
+
+def test_student_ppo_starts_as_the_student_with_the_teachers_critic_and_deploys_as_a_student(tmp_path: Path):
+    """--role student-ppo: PPO whose actor is a distilled student (2 frames of history), copied
+    exactly, with the teacher's critic and action std; its checkpoints load as that student."""
+    _, student, _, policy_path = _distil_tiny_student(tmp_path, student_history=2)
+    teacher = tmp_path / "teacher"
+    out = tmp_path / "student_ppo"
+    r = TrainingRun(spec(out, role="student-ppo", teacher=teacher, init_from=student))
+    r.setup()
+    t = torch.load(list_checkpoints(teacher)[-1][1], weights_only=False)
+    alg = r.runner.alg
+    for k, v in t["critic_state_dict"].items():
+        assert torch.equal(alg.critic.state_dict()[k], v)
+    assert torch.equal(alg.actor.state_dict()["distribution.std_param"], t["actor_state_dict"]["distribution.std_param"])
+    obs = r.env.get_observations()
+    expected = load_policy_file(policy_path).module(obs["student_history"].float())
+    torch.testing.assert_close(r.runner.get_inference_policy()(obs), expected, atol=1e-5, rtol=0)
+    r.run()
+    meta = json.loads((out / "train_meta.json").read_text())
+    assert meta["role"] == "student-ppo" and meta["policy"]["obs_group"] == "student" and meta["policy"]["obs_history"] == 2
+    policy = load_policy_file(list_checkpoints(out)[-1][1])
+    assert policy.history == 2 and policy.module.meta.role == "student"
+    r = run(spec(out, role="student-ppo", teacher=teacher, iterations=2, resume=True))  # resumes without --init-from
+    assert list_checkpoints(out)[-1][0] == 1
+    with pytest.raises(ValueError, match="starts from a student"):
+        TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=teacher, init_from=teacher)).setup()

@@ -24,11 +24,13 @@ class TrainArgs:
     out: Path
     """Run folder: checkpoints, tensorboard logs, train_meta.json."""
     role: Role = "teacher"
-    """teacher: PPO on the teacher observations; student: distillation from --teacher."""
+    """teacher: PPO on the teacher observations; student: distillation from --teacher;
+    student-ppo: PPO on a distilled student (--init-from) with --teacher's privileged critic."""
     context: Context = "flat"
     """Training context: flat plane, rough level ground, or 20° incline."""
     teacher: Path | None = None
-    """Teacher run folder (its latest checkpoint) or checkpoint file; needed for --role student."""
+    """Teacher run folder (its latest checkpoint) or checkpoint file; needed for --role student
+    and student-ppo (a PPO run checkpoint: its critic and action std start the student's PPO)."""
     envs: int = 64
     """Parallel environments (64–256 suit a few CPU cores)."""
     iterations: int = 10_000
@@ -36,8 +38,10 @@ class TrainArgs:
     resume: bool = False
     """Continue the run in --out from its latest checkpoint."""
     init_from: Path | None = None
-    """Teacher only: start a new run from another teacher's weights (actor, critic, observation
-    normaliser; fresh optimiser, iteration 0), e.g. rough/incline teachers from the flat one."""
+    """Teacher: start a new run from another teacher's weights (actor, critic, observation
+    normaliser; fresh optimiser, iteration 0), e.g. rough/incline teachers from the flat one.
+    Student-ppo: the distilled student to go on from (a student run or checkpoint, a policy
+    file, or a shipped name such as incline)."""
     seed: int = 0
     """Seed of the terrain tiles, the episodes and the network initialisation."""
     physics_threads: int = 1

@@ -19,8 +19,10 @@ __all__ = [
 
 Context = Literal["flat", "rough", "incline"]
 """Training contexts (seed §V): flat plane, rough level ground, 20° smooth slope."""
-Role = Literal["teacher", "student"]
-"""Teacher: PPO on privileged observations. Student: distilled onto sensor-only observations."""
+Role = Literal["teacher", "student", "student-ppo"]
+"""Teacher: PPO on privileged observations. Student: distilled onto sensor-only observations.
+Student-ppo: PPO on a distilled student's sensor-only observations, its critic privileged
+(``selfright.train.student_ppo``)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -300,21 +302,25 @@ class TrainConfig:
     """Most recent time-based checkpoints kept on disk; 0 = keep all."""
 
     def to_rsl_rl(self, role: Role, teacher_policy: PolicyConfig | None = None) -> dict[str, Any]:
-        """The ``train_cfg`` dict of ``OnPolicyRunner`` (teacher) or ``DistillationRunner`` (student).
+        """The ``train_cfg`` dict of ``OnPolicyRunner`` (teacher, student-ppo) or ``DistillationRunner`` (student).
 
-        ``teacher_policy`` is the network of the trained teacher being distilled (default: ``policy``).
+        ``teacher_policy`` is the network of the trained teacher being distilled, or whose critic
+        a student-ppo run starts from (default: ``policy``).
         """
         pol = self.policy
         net = _mlp_cfg(pol)
         common = {"save_interval": 10**9, "logger": "tensorboard", "check_for_nan": True}
-        if role == "teacher":
+        if role in ("teacher", "student-ppo"):
             p = self.ppo
+            # student-ppo: the student's network on its frames; the critic is the teacher's.
+            actor_group = "teacher" if role == "teacher" else student_group(self.distillation.student_history)
+            critic = dict(net) if role == "teacher" else _mlp_cfg(teacher_policy or pol)
             return {
                 **common,
                 "num_steps_per_env": p.steps_per_env,
-                "obs_groups": {"actor": ["teacher"], "critic": ["teacher"]},
+                "obs_groups": {"actor": [actor_group], "critic": ["teacher"]},
                 "actor": {**net, "distribution_cfg": _gaussian(pol.init_std, pol.state_dependent_std)},
-                "critic": dict(net),
+                "critic": critic,
                 "algorithm": {
                     "class_name": "PPO",
                     "num_learning_epochs": p.num_learning_epochs,

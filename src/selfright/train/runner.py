@@ -48,6 +48,7 @@ from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
+from selfright.train.student_ppo import load_student, student_ppo_start, student_train_config
 from selfright.train.override_mask import attach_override_mask
 from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
@@ -175,8 +176,8 @@ class TrainingRun:
             raise ValueError(f"--iterations must be ≥ 0 (got {s.iterations})")
         if s.iterations == 0 and not s.resume:
             raise ValueError("--iterations 0: a new run needs at least 1 iteration to train")
-        if s.role == "student" and s.teacher is None:
-            raise ValueError("--role student needs --teacher RUN_DIR (a trained teacher run or checkpoint)")
+        if s.role in ("student", "student-ppo") and s.teacher is None:
+            raise ValueError(f"--role {s.role} needs --teacher RUN_DIR (a trained teacher run or checkpoint)")
         if s.teacher is not None and not s.teacher.exists():
             raise ValueError(f"teacher {s.teacher} not found; pass a teacher run folder or model_<it>.pt")
         if s.device.startswith("cuda") and not torch.cuda.is_available():
@@ -200,12 +201,19 @@ class TrainingRun:
         if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
             raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
                              "no --train.distillation.student-gru)")
+        if s.role == "student-ppo":
+            if s.init_from is None and not s.resume:
+                raise ValueError("--role student-ppo needs --init-from STUDENT (a distilled student run, policy file or name)")
+            if ep.upright_policy is not None or ep.tilted_policy is not None:
+                raise ValueError("--role student-ppo trains the whole student; drop --train.episode.upright/tilted-policy")
+            if s.train.ppo.symmetry_augmentation or s.train.ppo.mirror_loss_coef:
+                raise ValueError("symmetry augmentation mirrors the teacher observations; not with --role student-ppo")
         if s.init_from is not None:
-            if s.role != "teacher":
-                raise ValueError("--init-from is for teachers; a student starts from --teacher")
+            if s.role == "student":
+                raise ValueError("--init-from is for teachers and student-ppo runs; a student starts from --teacher")
             if s.resume:
                 raise ValueError("--init-from starts a new run; drop --resume (a resumed run keeps its own weights)")
-            if not s.init_from.exists():
+            if not s.init_from.exists() and s.role == "teacher":
                 raise ValueError(f"--init-from {s.init_from} not found; pass a teacher run folder or model_<it>.pt")
         if not s.resume and has_ckpt:
             raise ValueError(f"{self.out} already holds checkpoints; pass --resume to continue or choose another --out")
@@ -219,8 +227,13 @@ class TrainingRun:
         self.resume_ckpt = latest_checkpoint(self.out) if s.resume else None
         self.teacher_ckpt = latest_checkpoint(s.teacher) if s.teacher is not None else None
         self.init_ckpt: Path | None = None
+        self.init_student = None
+        if s.role == "student-ppo":  # the actor is the student's network, with its history
+            self.init_student = load_student(s.init_from if s.init_from is not None else self.resume_ckpt)
+            s = self.spec = replace(s, train=student_train_config(s.train, self.init_student))
+            self._check_student_mapping(self.init_student)
         teacher_policy, teacher_meta = (None, {})
-        if s.role == "student":
+        if s.role in ("student", "student-ppo"):
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
             if teacher_meta.get("context") not in (None, s.context):
                 print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
@@ -248,7 +261,7 @@ class TrainingRun:
                 Path(frozen), ep.upright_tilt_deg, s.num_envs, self.env.env.robot, s.bench.action, side,
             )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
-        runner_cls = OnPolicyRunner if s.role == "teacher" else DistillationRunner
+        runner_cls = DistillationRunner if s.role == "student" else OnPolicyRunner
         with contextlib.redirect_stdout(io.StringIO()):  # rsl_rl prints the model layouts
             self.runner = runner_cls(self.env, self.cfg, log_dir=str(self.out), device=s.device)
         r = self.runner
@@ -274,6 +287,10 @@ class TrainingRun:
         elif s.role == "student":
             if fallback is None:  # (with a fallback both teachers are loaded above)
                 r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
+        elif s.role == "student-ppo":
+            teacher = torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)
+            r.alg.load(student_ppo_start(self.init_student.to(s.device), teacher), {"actor": True, "critic": True}, True)
+            self.init_ckpt = s.init_from  # as given: a run, a file or a shipped policy's name
         elif s.init_from is not None:
             init = latest_checkpoint(s.init_from)
             _, init_meta = teacher_policy_config(init, s.train.policy)  # refuses student runs
@@ -296,6 +313,11 @@ class TrainingRun:
         self.base_steps = int(resumed_infos.get("env_steps", self.prev_meta.get("env_steps", 0)))
         self.base_wall = float(resumed_infos.get("wall_clock_s", self.prev_meta.get("wall_clock_s", 0.0)))
         self.t0 = time.time()
+
+    def _check_student_mapping(self, student) -> None:
+        ref = student.meta.action_reference
+        if ref and ref != self.spec.bench.action.reference:
+            raise ValueError(f"--init-from: the student was trained with --action-reference {ref}; go on with the same")
 
     def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
         """Replace rsl_rl's teacher by ``FallbackTeacher`` (the ``--teacher`` and the fallback
@@ -359,17 +381,18 @@ class TrainingRun:
     # -------------------------------------------------------------- metadata
     def policy_meta(self) -> dict[str, Any]:
         pol = self.spec.train.policy
+        student = self.spec.role != "teacher"  # a student-ppo actor deploys as a student
         return {
-            "obs_group": "teacher" if self.spec.role == "teacher" else "student",
+            "obs_group": "student" if student else "teacher",
             "hidden_dims": list(pol.hidden_dims),
             "activation": pol.activation,
             "obs_normalization": pol.obs_normalization,
             "state_dependent_std": pol.state_dependent_std and self.spec.role == "teacher",
-            "role": self.spec.role,
+            "role": "student" if student else "teacher",
             "context": self.spec.context,
             "action_reference": self.spec.bench.action.reference,
             "action_scale_rad": self.spec.bench.action.scale_rad,
-            "obs_history": self.spec.train.distillation.student_history if self.spec.role == "student" else 1,
+            "obs_history": self.spec.train.distillation.student_history if student else 1,
             "gru_dim": self.spec.train.distillation.student_gru if self.spec.role == "student" else 0,
             "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if self.spec.role == "student" else [],
         }

@@ -122,6 +122,15 @@ def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
     return fb, f" except for {d.get('fallback_s')} s after each stall, labelled by `{fb}`"
 
 
+def _lineage(meta: dict[str, Any], teacher: str | None, fallback_words: str) -> str:
+    """How the policy came from its teacher: distilled, or (student-ppo) PPO on its own
+    observations from a distilled student, with the teacher's critic."""
+    if meta.get("role") == "student-ppo":
+        return (f", trained with PPO on its own observations from the distilled student `{meta.get('init_from')}`, "
+                f"its privileged critic starting as `{teacher}`'s")
+    return f", distilled from `{teacher}`{fallback_words}" if teacher else ""
+
+
 def model_card(
     name: str, meta: dict[str, Any], summary: dict[str, Any], actor: ActorMeta, notes: str = ""
 ) -> str:
@@ -137,6 +146,7 @@ def model_card(
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     pol = meta.get("policy") or {}
+    ppo_student = meta.get("role") == "student-ppo"
     lines = [
         f"# Model card: `{name}`",
         "",
@@ -145,13 +155,14 @@ def model_card(
         + (f", through a GRU of {actor.gru_dim} units that remembers the episode" if actor.gru_dim > 0 else "")
         + (f", with a trunk-velocity estimator ({'-'.join(map(str, actor.estimator_dims))} units) trained on the "
            "privileged velocity, whose estimate its MLP reads)" if actor.estimator_dims else ")")
-        + (f", distilled from `{teacher}`{fallback_words}" if teacher else ""),
+        + _lineage(meta, teacher, fallback_words),
         f"- **Training context**: {meta.get('context')}"
-        + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") else ""),
+        + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") and not ppo_student else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
+        + _budget("the student it started from", meta.get("init_from") if ppo_student else None)
         + _budget("its teacher", teacher)
         + _budget("its fallback teacher", fallback)
-        + _budget("before that, its initialisation", meta.get("init_from")),
+        + _budget("before that, its initialisation", None if ppo_student else meta.get("init_from")),
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
         f"- **Reward**: {reward_summary(meta)}",
