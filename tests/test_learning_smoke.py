@@ -488,7 +488,8 @@ def test_student_ppo_starts_as_the_student_with_the_teachers_critic_and_deploys_
     _, student, _, policy_path = _distil_tiny_student(tmp_path, student_history=2)
     teacher = tmp_path / "teacher"
     out = tmp_path / "student_ppo"
-    r = TrainingRun(spec(out, role="student-ppo", teacher=teacher, init_from=student))
+    warm = dataclasses.replace(TINY, ppo=dataclasses.replace(TINY.ppo, critic_warmup_iterations=1))
+    r = TrainingRun(spec(out, role="student-ppo", teacher=teacher, init_from=student, train=warm))
     r.setup()
     t = torch.load(list_checkpoints(teacher)[-1][1], weights_only=False)
     alg = r.runner.alg
@@ -498,12 +499,17 @@ def test_student_ppo_starts_as_the_student_with_the_teachers_critic_and_deploys_
     obs = r.env.get_observations()
     expected = load_policy_file(policy_path).module(obs["student_history"].float())
     torch.testing.assert_close(r.runner.get_inference_policy()(obs), expected, atol=1e-5, rtol=0)
-    r.run()
+    actor_before = copy.deepcopy(alg.actor.state_dict())
+    r.run()  # its one iteration is the critic's warm-up: only the critic moves
+    assert all(torch.equal(v, actor_before[k]) for k, v in alg.actor.state_dict().items() if not k.startswith("obs_"))
+    assert not torch.equal(alg.critic.state_dict()["mlp.0.weight"], t["critic_state_dict"]["mlp.0.weight"])
     meta = json.loads((out / "train_meta.json").read_text())
     assert meta["role"] == "student-ppo" and meta["policy"]["obs_group"] == "student" and meta["policy"]["obs_history"] == 2
     policy = load_policy_file(list_checkpoints(out)[-1][1])
     assert policy.history == 2 and policy.module.meta.role == "student"
     r = run(spec(out, role="student-ppo", teacher=teacher, iterations=2, resume=True))  # resumes without --init-from
     assert list_checkpoints(out)[-1][0] == 1
+    moved = torch.load(list_checkpoints(out)[-1][1], weights_only=False)["actor_state_dict"]
+    assert not torch.equal(moved["mlp.0.weight"], actor_before["mlp.0.weight"])  # after the warm-up PPO moves the actor
     with pytest.raises(ValueError, match="starts from a student"):
         TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=teacher, init_from=teacher)).setup()

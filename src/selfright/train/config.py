@@ -194,6 +194,10 @@ class PPOConfig:
     mirror_loss_coef: float = 0.0
     """Weight of rsl_rl's mirror loss (MSE between the policy's action on mirrored
     observations and its mirrored action); 0 = off."""
+    critic_warmup_iterations: int = 0
+    """The first N iterations of a new run update only the critic (the actor, its action std
+    included, is frozen), so that a critic taken from another policy (``--role student-ppo``)
+    fits the actor it now judges before PPO moves the actor; 0 = off."""
 
 
 @dataclass(frozen=True, kw_only=True)

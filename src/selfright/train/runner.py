@@ -48,7 +48,7 @@ from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
-from selfright.train.student_ppo import load_student, student_ppo_start, student_train_config
+from selfright.train.student_ppo import attach_critic_warmup, load_student, student_ppo_start, student_train_config
 from selfright.train.override_mask import attach_override_mask
 from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
@@ -272,6 +272,8 @@ class TrainingRun:
         )
         if self.env.action_override is not None and ep.upright_masked:
             attach_override_mask(r.alg, self.env.action_override)
+        if s.role != "student" and self.resume_ckpt is None:
+            attach_critic_warmup(r.alg, s.train.ppo.critic_warmup_iterations)
         if s.role == "student" and s.train.distillation.velocity_estimator:
             attach_velocity_estimator(r.alg, s.train.distillation.estimator_learning_rate, s.seed + start_it)
         if s.role == "student" and s.train.distillation.ema_decay > 0:  # after the estimator: averages its update too

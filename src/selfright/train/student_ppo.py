@@ -31,7 +31,7 @@ from selfright.policies.registry import shipped_path
 from selfright.train.checkpoints import latest_checkpoint, policy_hint
 from selfright.train.config import TrainConfig
 
-__all__ = ["load_student", "student_train_config", "student_ppo_start"]
+__all__ = ["load_student", "student_train_config", "student_ppo_start", "attach_critic_warmup"]
 
 
 def load_student(path: Path) -> ActorMLP:
@@ -89,3 +89,28 @@ def student_ppo_start(student: ActorMLP, teacher_ckpt: dict[str, Any]) -> dict[s
     if "obs_normalizer.count" in actor:
         actor["obs_normalizer.count"] = actor_sd.get("obs_normalizer.count", torch.tensor(10**6)).clone()
     return {"actor_state_dict": actor, "critic_state_dict": critic}
+
+
+def attach_critic_warmup(alg: Any, iterations: int) -> None:
+    """Make the next ``iterations`` PPO updates of ``alg`` (rsl_rl ``PPO``) train the critic
+    only: the actor's parameters stop requiring gradients during each of them, so the optimiser
+    skips them, their KL is 0 and the adaptive learning rate holds."""
+    if iterations <= 0:
+        return
+    update, left = alg.update, [iterations]
+
+    def warm_update() -> dict[str, float]:
+        if left[0] <= 0:
+            return update()
+        left[0] -= 1
+        params = list(alg.actor.parameters())
+        flags = [p.requires_grad for p in params]
+        for p in params:
+            p.requires_grad_(False)
+        try:
+            return update()
+        finally:
+            for p, flag in zip(params, flags):
+                p.requires_grad_(flag)
+
+    alg.update = warm_update
