@@ -513,3 +513,6 @@ def test_student_ppo_starts_as_the_student_with_the_teachers_critic_and_deploys_
     assert not torch.equal(moved["mlp.0.weight"], actor_before["mlp.0.weight"])  # after the warm-up PPO moves the actor
     with pytest.raises(ValueError, match="starts from a student"):
         TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=teacher, init_from=teacher)).setup()
+    card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
+    assert f"PPO on its own observations from the distilled student `{student}`" in card
+    assert "its last 2 frames stacked" in card and "distilled from" not in card
