@@ -142,6 +142,15 @@ def load_policy_file(path: str | Path) -> Policy:
 
 # ------------------------------------------------------------------- formats
 def _load_torch(p: Path) -> Policy:
+    actor = load_torch_actor(p)
+    m = actor.meta
+    mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
+    return TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history, m.gru_dim)
+
+
+def load_torch_actor(p: Path) -> ActorMLP:
+    """The actor of a weights-only torch file: a ``selfright export`` policy file or an rsl_rl
+    training checkpoint (its run's metadata as the hint). ``ValueError`` (one line) otherwise."""
     try:
         payload = torch.load(p, map_location="cpu", weights_only=True)
     except Exception as e:  # noqa: BLE001 - any unpickling failure means the same to the user
@@ -159,9 +168,7 @@ def _load_torch(p: Path) -> Policy:
         raise ValueError(
             f"policy file {p} holds no actor; pass a file from `selfright export` or a training checkpoint"
         )
-    m = actor.meta
-    mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
-    return TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history, m.gru_dim)
+    return actor
 
 
 def _load_jit(p: Path) -> Policy:

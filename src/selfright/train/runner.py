@@ -395,8 +395,8 @@ class TrainingRun:
             "action_reference": self.spec.bench.action.reference,
             "action_scale_rad": self.spec.bench.action.scale_rad,
             "obs_history": self.spec.train.distillation.student_history if student else 1,
-            "gru_dim": self.spec.train.distillation.student_gru if self.spec.role == "student" else 0,
-            "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if self.spec.role == "student" else [],
+            "gru_dim": self.spec.train.distillation.student_gru if student else 0,
+            "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if student else [],
         }
 
     def meta(self, done_it: int, checkpoint: Path | None) -> dict[str, Any]:

@@ -26,9 +26,10 @@ from typing import Any
 
 import torch
 
-from selfright.policies.actor import FILE_FORMAT, ActorMLP, actor_from_checkpoint, actor_from_payload, teacher_checkpoint
+from selfright.policies.actor import ActorMLP, teacher_checkpoint
+from selfright.policies.learned import load_torch_actor
 from selfright.policies.registry import shipped_path
-from selfright.train.checkpoints import latest_checkpoint, policy_hint
+from selfright.train.checkpoints import latest_checkpoint
 from selfright.train.config import TrainConfig
 
 __all__ = ["load_student", "student_train_config", "student_ppo_start", "attach_critic_warmup"]
@@ -43,13 +44,7 @@ def load_student(path: Path) -> ActorMLP:
         raise ValueError(f"--init-from {path}: neither a run, a checkpoint, a policy file nor a shipped policy name")
     if p.is_dir():
         p = latest_checkpoint(p)
-    payload = torch.load(p, map_location="cpu", weights_only=True)
-    if isinstance(payload, dict) and payload.get("format") == FILE_FORMAT:
-        actor = actor_from_payload(payload)
-    elif isinstance(payload, dict) and ("student_state_dict" in payload or "actor_state_dict" in payload):
-        actor = actor_from_checkpoint(payload, policy_hint(p, payload.get("infos")))
-    else:
-        raise ValueError(f"--init-from {p} holds no actor")
+    actor = load_torch_actor(p)
     m = actor.meta
     if m.obs_group != "student":
         raise ValueError(f"--init-from {p} reads the {m.obs_group!r} observations; --role student-ppo starts from a "
