@@ -198,6 +198,23 @@ def _evaluate(policy, worlds, train: TrainConfig, steps: int = 100, n: int = 32,
 SMOKE_CFG = dataclasses.replace(CFG, action=ActionConfig(reference="current"))
 
 
+def test_max_std_bounds_the_noise_a_resumed_run_explores_with(tmp_path: Path):
+    """--train.policy.max-std: a resumed run draws its actions with each joint's std bounded,
+    while the stored std and the deployed mean are those of the checkpoint."""
+    out = tmp_path / "t"
+    run(spec(out))  # init_std 0.5
+    bounded = dataclasses.replace(TINY, policy=dataclasses.replace(TINY.policy, max_std=0.2))
+    r = TrainingRun(spec(out, iterations=2, resume=True, train=bounded))
+    r.setup()
+    actor, obs = r.runner.alg.actor, r.env.get_observations()
+    actor(obs, stochastic_output=True)
+    assert torch.allclose(actor.output_std, torch.full_like(actor.output_std, 0.2))
+    saved = torch.load(list_checkpoints(out)[-1][1], weights_only=False)["actor_state_dict"]["distribution.std_param"]
+    assert torch.equal(actor.state_dict()["distribution.std_param"], saved) and bool((saved > 0.2).all())
+    with pytest.raises(ValueError, match="max_std must be positive"):
+        dataclasses.replace(TINY.policy, max_std=0.0)
+
+
 def test_ppo_learning_signal_moves():
     """40 PPO iterations × 16 envs (~15 s): on the same 32 falls, the trained mean policy earns
     more reward per step and is more upright than the initial one."""

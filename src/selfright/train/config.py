@@ -152,6 +152,16 @@ class PolicyConfig:
     instead of being one learned vector. ``--init-from`` a checkpoint with a state-independent
     std starts with the std head's weights at zero and its bias at the source's log std: the
     same stochastic policy. The deployed (mean) actor is the first half of the last layer."""
+    max_std: float | None = None
+    """PPO roles: upper bound on each joint's action std (action units), applied where the
+    noise is drawn (rsl_rl's ``std_range`` clamp), so a learned std above it acts as the bound
+    and stops moving; ``None`` = no bound. For going on from a trained actor with less
+    exploration noise (a resumed run takes the bound given on its command line). The deployed
+    actor acts with its mean and is unaffected."""
+
+    def __post_init__(self) -> None:
+        if self.max_std is not None and not self.max_std > 0:
+            raise ValueError(f"policy.max_std must be positive, got {self.max_std}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -323,7 +333,7 @@ class TrainConfig:
                 **common,
                 "num_steps_per_env": p.steps_per_env,
                 "obs_groups": {"actor": [actor_group], "critic": ["teacher"]},
-                "actor": {**net, "distribution_cfg": _gaussian(pol.init_std, pol.state_dependent_std)},
+                "actor": {**net, "distribution_cfg": _gaussian(pol.init_std, pol.state_dependent_std, pol.max_std)},
                 "critic": critic,
                 "algorithm": {
                     "class_name": "PPO",
@@ -403,8 +413,10 @@ def _student_cfg(pol: PolicyConfig, gru: int, estimator: tuple[int, ...] = ()) -
     return {**_mlp_cfg(pol), "class_name": "RNNModel", "rnn_type": "gru", "rnn_hidden_dim": gru, "rnn_num_layers": 1}
 
 
-def _gaussian(init_std: float, state_dependent: bool = False) -> dict[str, Any]:
+def _gaussian(init_std: float, state_dependent: bool = False, max_std: float | None = None) -> dict[str, Any]:
+    bound = {} if max_std is None else {"std_range": (1e-6, float(max_std))}
     if state_dependent:
         # A std of 0 has no log: a deterministic (distilled-from) teacher's head is never used.
-        return {"class_name": "HeteroscedasticGaussianDistribution", "init_std": max(init_std, 1e-3), "std_type": "log"}
-    return {"class_name": "GaussianDistribution", "init_std": init_std, "std_type": "scalar"}
+        return {"class_name": "HeteroscedasticGaussianDistribution", "init_std": max(init_std, 1e-3), "std_type": "log",
+                **bound}
+    return {"class_name": "GaussianDistribution", "init_std": init_std, "std_type": "scalar", **bound}
