@@ -13,7 +13,9 @@ On the incline most episodes that leave the tile carry the second: they tumble d
 getting up, not while lying on the back.
 
 and prints, for the "low" class, the trunk height above the ground beneath it and above the
-mean ground under the feet (they differ on rough tiles; the goal set reads the first).
+mean ground under the feet (they differ on rough tiles; the goal set reads the first), and,
+over every episode that ends upright on four feet (successes included), the median stance:
+trunk height over the feet and each leg's hip, thigh and knee angles.
 
     python scripts/failure_modes.py --policy rough --grid rough --episodes 64
 
@@ -44,6 +46,7 @@ def main(a: ReplayArgs) -> None:
     for k, cell in enumerate(cells):
         classes: Counter[str] = Counter()
         low_h: list[tuple[float, float]] = []
+        stances: list[np.ndarray] = []  # (height over feet, J joint angles) of every end on four feet, upright
         for eps, seeds in replay_batches(a, cell, env.num_envs):
             ids = np.arange(len(eps))
             ever_goal = np.zeros(len(eps), bool)
@@ -66,7 +69,10 @@ def main(a: ReplayArgs) -> None:
             feet_down = st.feet_contact.sum(dim=-1).numpy()
             height = st.height.numpy()
             over_feet = env.height_over_feet(ids)
+            q = st.q.numpy()
             for i in ids:
+                if is_up[i] and feet_down[i] == 4:
+                    stances.append(np.concatenate([[over_feet[i]], q[i]]))
                 if success[i]:
                     classes["success"] += 1
                     continue
@@ -94,6 +100,12 @@ def main(a: ReplayArgs) -> None:
             h = np.array(low_h)
             print(f"  low: height above ground beneath trunk median {np.median(h[:, 0]):.3f} m; "
                   f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m)")
+        if stances:
+            m = np.median(np.array(stances), axis=0)
+            legs = "  ".join(f"{n.split('_')[0]} {m[1 + j]:+.2f} {m[2 + j]:+.2f} {m[3 + j]:+.2f}"
+                             for j, n in zip(range(0, len(m) - 1, 3), env.robot.joint_names[::3]))
+            print(f"  stance (the {len(stances)} ending upright on four feet): {m[0]:.3f} m over the feet; "
+                  f"hip thigh knee (rad) {legs}")
     env.close()
 
 

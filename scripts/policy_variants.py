@@ -1,6 +1,6 @@
 """Evaluate variants of learned policies that do not ship: a policy that samples its actions
 from its own training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, or a policy that hands over to a second one when it stalls or
+mean of its members' actions, one whose hip actions go to 0 once upright, or a policy that hands over to a second one when it stalls or
 while it is tilted over.
 Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_table.py`` and
 ``scripts/failure_overlap.py`` read it.
@@ -13,6 +13,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --grid flat --seed 4 --out results/fallback_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --tilt-deg 45 \\
         --grid flat --seed 4 --out results/tilt45_s4
+    python scripts/policy_variants.py --policies rough --zero-hips-upright-s 2 --grid rough \\
+        --seed 4 --out results/rough_hips0_s4
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
 ``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
@@ -32,7 +34,9 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import ScanSwitch, hand_over_rule
-from selfright.policies.variants import Blinded, EstimatedVelocity, Fallback, MeanOf, Noisy, Smoothed, trained_std
+from selfright.policies.variants import (
+    Blinded, EstimatedVelocity, Fallback, HipsZeroedUpright, MeanOf, Noisy, Smoothed, trained_std,
+)
 from selfright.robots import get_robot
 
 
@@ -78,6 +82,11 @@ class Args:
     smooth: float = 0.0
     """Low-pass actions per episode: a_t = β a_(t−1) + (1 − β) π(o_t) with this β
     (``selfright.policies.variants.Smoothed``); 0 = off."""
+    zero_hips_upright_s: float = 0.0
+    """Ramp the hip abduction actions to 0 over this long (s) once the trunk is upright within
+    ``zero_hips_tilt_deg`` (``selfright.policies.variants.HipsZeroedUpright``); 0 = off."""
+    zero_hips_tilt_deg: float = 15.0
+    """With ``zero_hips_upright_s``: how upright counts as upright (deg)."""
     smooth_last: bool = False
     """With ``smooth``: low-pass only the last policy of a composite (the tilted one: the escape),
     which then sees every step (``feed_both``) so its filter runs on between hand-overs; off =
@@ -88,6 +97,10 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if a.smooth_last and not (a.smooth > 0 and (a.tilt_deg > 0 or a.fallback_s > 0)):
         raise ValueError("--smooth-last takes --smooth and a composite (--tilt-deg or --fallback-s)")
     policy = _make_variant(a, cfg)
+    if a.zero_hips_upright_s > 0:
+        hips = [i for i, n in enumerate(get_robot(cfg.robot.name).joint_names) if "hip" in n]
+        ramp = max(1, round(a.zero_hips_upright_s / cfg.sim.control_dt_s))
+        policy = HipsZeroedUpright(policy, a.zero_hips_tilt_deg, ramp, hips)
     return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
 
 
@@ -155,6 +168,8 @@ def main(a: Args) -> None:
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
     name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
     name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
+    name += (f" (hips to 0 over {a.zero_hips_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg)"
+             if a.zero_hips_upright_s > 0 else "")
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

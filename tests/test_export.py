@@ -385,3 +385,32 @@ def test_smoothed_policy_low_passes_each_slot_from_its_episode_start():
     assert p.act(obs(1.0, 1.0), ids, [None] * 2)[:, 0].tolist() == [1.0, -1.4375]
     with pytest.raises(ValueError, match="beta"):
         Smoothed(_Echo(), 1.0)
+
+
+def test_hips_zeroed_upright_ramps_only_the_hips_of_upright_slots():
+    from selfright.policies.variants import HipsZeroedUpright
+
+    class _Ones(Policy):
+        def act(self, obs, ids, contexts):
+            return torch.ones(len(ids), 12)
+
+    def obs(*gz):  # the projected gravity's z of each slot: −1 upright, 0 on its side
+        x = torch.zeros(len(gz), 42)
+        x[:, 2] = torch.tensor(gz)
+        return {"student": x}
+
+    p = HipsZeroedUpright(_Ones(), 15.0, 4, [0, 3, 6, 9])
+    ids = np.array([0, 1])
+    p.reset(ids)
+    for _ in range(2):
+        a = p.act(obs(-1.0, 0.0), ids, [None] * 2)
+    assert a[0, [0, 3, 6, 9]].tolist() == [0.5] * 4 and a[0].sum().item() == 10.0  # half-way down its ramp
+    assert a[1].tolist() == [1.0] * 12  # tilted over: untouched
+    for _ in range(3):
+        a = p.act(obs(-1.0, -1.0), ids, [None] * 2)
+    assert a[0, [0, 3, 6, 9]].tolist() == [0.0] * 4 and a[1, 0].item() == 0.25
+    assert p.act(obs(0.0, -1.0), ids, [None] * 2)[0, 0].item() == 1.0  # tilting over restarts the count
+    p.reset(ids[1:])
+    assert p.act(obs(0.0, -1.0), ids, [None] * 2)[1, 0].item() == 0.75  # a new episode starts its ramp afresh
+    with pytest.raises(ValueError, match="ramp"):
+        HipsZeroedUpright(_Ones(), 15.0, 0, [0])

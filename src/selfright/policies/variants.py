@@ -1,6 +1,7 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
 actions from its training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, one whose actions are low-passed, and one that hands over to a second policy when it stalls or
+mean of its members' actions, one whose actions are low-passed, one whose hips are
+zeroed once upright, and one that hands over to a second policy when it stalls or
 while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labelled the shipped
 ``flat`` student's distillation)."""
 
@@ -151,6 +152,40 @@ class Smoothed(Policy):
         out = torch.where(self._fresh[t][:, None], x, self.beta * self._last[t] + (1.0 - self.beta) * x)
         self._last[t], self._fresh[t] = out, False
         return out.to(a.device, a.dtype)
+
+
+class HipsZeroedUpright(Policy):
+    """``inner``, except that once the trunk has been upright (the IMU's projected gravity
+    within ``tilt_deg`` of down) its hip abduction actions are ramped to 0 over ``ramp_steps``
+    control steps, and back when it tilts over: a stance with the legs in their sagittal
+    planes. Asks whether the twisted stance the rough policies end in is what keeps their
+    trunk under the goal bar; ``scripts/policy_variants.py --zero-hips-upright-s``."""
+
+    def __init__(self, inner: Policy, tilt_deg: float, ramp_steps: int, hip_columns: Sequence[int]):
+        if ramp_steps < 1:
+            raise ValueError(f"the hip ramp needs at least one step, got {ramp_steps}")
+        self.inner, self.ramp, self.hips = inner, int(ramp_steps), list(hip_columns)
+        self.cos_tilt = float(np.cos(np.radians(tilt_deg)))
+        self.groups = tuple(sorted(set(inner.groups) | {"student"}))
+        self.action_mapping, self.digest = inner.action_mapping, inner.digest
+        self.name = f"{inner.name} (hips to 0 upright within {tilt_deg:g} deg, over {ramp_steps} steps)"
+        self._upright_steps = torch.zeros(0)
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.inner.reset(ids, seeds)
+        t = slot_index(ids)
+        self._upright_steps = grown(self._upright_steps, t)
+        self._upright_steps[t] = 0.0
+
+    def act(self, obs, ids, contexts):
+        a = self.inner.act(obs, ids, contexts).clone()
+        t = slot_index(ids)
+        self._upright_steps = grown(self._upright_steps, t)
+        up = obs["student"][:, 2].detach().cpu() < -self.cos_tilt  # projected gravity's z: −1 upright
+        self._upright_steps[t] = torch.where(up, self._upright_steps[t] + 1.0, torch.zeros(()))
+        keep = (1.0 - (self._upright_steps[t] / self.ramp).clamp(max=1.0)).to(a.device, a.dtype)
+        a[:, self.hips] *= keep[:, None]
+        return a
 
 
 def trained_std(checkpoint: str) -> torch.Tensor:
