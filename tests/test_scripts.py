@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import runpy
 import sys
 from pathlib import Path
@@ -202,7 +203,9 @@ def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeyp
     ckpt = latest_checkpoint(out)
     cfg, meta = teacher_policy_config(ckpt, PolicyConfig())
     assert meta["role"] == "teacher" and meta["context"] == "rough" and cfg.hidden_dims == (256, 128, 64)
-    assert meta["env_steps"] == 261_120 and meta["train_config"]["reward"]["feet_contact"] == 8.0  # from its card
+    card = shipped_path("rough-teacher").with_suffix(".md").read_text()
+    steps = int(re.search(r"\*\*Environment steps\*\*: ([\d,]+)", card).group(1).replace(",", ""))
+    assert meta["env_steps"] == steps and meta["train_config"]["reward"]["feet_contact"] == 8.0  # from its card
     back = actor_from_checkpoint(torch.load(ckpt, weights_only=True), meta["policy"])
     shipped = load_actor_file(shipped_path("rough-teacher"))
     assert all(torch.equal(a, b) for a, b in zip(back.state_dict().values(), shipped.state_dict().values()))
