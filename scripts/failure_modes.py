@@ -102,8 +102,8 @@ def main(a: ReplayArgs) -> None:
                   f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m)")
         if stances:
             m = np.median(np.array(stances), axis=0)
-            legs = "  ".join(f"{n.split('_')[0]} {m[1 + j]:+.2f} {m[2 + j]:+.2f} {m[3 + j]:+.2f}"
-                             for j, n in zip(range(0, len(m) - 1, 3), env.robot.joint_names[::3]))
+            legs = "  ".join(f"{n.split('_')[0]} " + " ".join(f"{v:+.2f}" for v in leg)
+                             for n, leg in zip(env.robot.joint_names[::3], m[1:].reshape(-1, 3)))
             print(f"  stance (the {len(stances)} ending upright on four feet): {m[0]:.3f} m over the feet; "
                   f"hip thigh knee (rad) {legs}")
     env.close()

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 import runpy
 import sys
 from pathlib import Path
@@ -195,6 +194,7 @@ def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeyp
     from selfright.train.checkpoints import latest_checkpoint
     from selfright.train.config import PolicyConfig
     from selfright.train.runner import teacher_policy_config
+    from selfright.train.ship import card_record
 
     import torch
 
@@ -203,9 +203,8 @@ def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeyp
     ckpt = latest_checkpoint(out)
     cfg, meta = teacher_policy_config(ckpt, PolicyConfig())
     assert meta["role"] == "teacher" and meta["context"] == "rough" and cfg.hidden_dims == (256, 128, 64)
-    card = shipped_path("rough-teacher").with_suffix(".md").read_text()
-    steps = int(re.search(r"\*\*Environment steps\*\*: ([\d,]+)", card).group(1).replace(",", ""))
-    assert meta["env_steps"] == steps and meta["train_config"]["reward"]["feet_contact"] == 8.0  # from its card
+    steps = card_record(shipped_path("rough-teacher").with_suffix(".md").read_text())["env_steps"]
+    assert steps > 0 and meta["env_steps"] == steps and meta["train_config"]["reward"]["feet_contact"] == 8.0  # from its card
     back = actor_from_checkpoint(torch.load(ckpt, weights_only=True), meta["policy"])
     shipped = load_actor_file(shipped_path("rough-teacher"))
     assert all(torch.equal(a, b) for a, b in zip(back.state_dict().values(), shipped.state_dict().values()))

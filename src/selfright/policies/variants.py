@@ -165,7 +165,7 @@ class HipsZeroedUpright(Policy):
         if ramp_steps < 1:
             raise ValueError(f"the hip ramp needs at least one step, got {ramp_steps}")
         self.inner, self.ramp, self.hips = inner, int(ramp_steps), list(hip_columns)
-        self.cos_tilt = float(np.cos(np.radians(tilt_deg)))
+        self._tilted = TiltSwitch(tilt_deg)  # upright = not tilted over tilt_deg, as for the composites
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
         self.name = f"{inner.name} (hips to 0 upright within {tilt_deg:g} deg, over {ramp_steps} steps)"
@@ -181,7 +181,7 @@ class HipsZeroedUpright(Policy):
         a = self.inner.act(obs, ids, contexts).clone()
         t = slot_index(ids)
         self._upright_steps = grown(self._upright_steps, t)
-        up = obs["student"][:, 2].detach().cpu() < -self.cos_tilt  # projected gravity's z: −1 upright
+        up = ~self._tilted.step(obs["student"], t)
         self._upright_steps[t] = torch.where(up, self._upright_steps[t] + 1.0, torch.zeros(()))
         keep = (1.0 - (self._upright_steps[t] / self.ramp).clamp(max=1.0)).to(a.device, a.dtype)
         a[:, self.hips] *= keep[:, None]
