@@ -1,6 +1,7 @@
 """Evaluate variants of learned policies that do not ship: a policy that samples its actions
 from its own training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, one whose hip actions go to 0 once upright, or a policy that hands over to a second one when it stalls or
+mean of its members' actions, one whose hip actions go to 0 once upright, one that
+blends its actions to a fixed stance once upright, or a policy that hands over to a second one when it stalls or
 while it is tilted over.
 Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_table.py`` and
 ``scripts/failure_overlap.py`` read it.
@@ -15,6 +16,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --grid flat --seed 4 --out results/tilt45_s4
     python scripts/policy_variants.py --policies rough --zero-hips-upright-s 2 --grid rough \\
         --seed 4 --out results/rough_hips0_s4
+    python scripts/policy_variants.py --policies rough --pose-upright-s 1 --pose-upright-delay-s 2 \\
+        --grid rough --seed 4 --out results/rough_pose_s4
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
 ``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
@@ -26,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import tyro
 
 from selfright.config import BenchmarkConfig
@@ -35,7 +39,7 @@ from selfright.policies.base import Policy
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import (
-    Blinded, EstimatedVelocity, Fallback, HipsZeroedUpright, MeanOf, Noisy, Smoothed, trained_std,
+    Blinded, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, Smoothed, trained_std,
 )
 from selfright.robots import get_robot
 
@@ -86,7 +90,17 @@ class Args:
     """Ramp the hip abduction actions to 0 over this long (s) once the trunk is upright within
     ``zero_hips_tilt_deg`` (``selfright.policies.variants.HipsZeroedUpright``); 0 = off."""
     zero_hips_tilt_deg: float = 15.0
-    """With ``zero_hips_upright_s``: how upright counts as upright (deg)."""
+    """With ``zero_hips_upright_s`` or ``pose_upright_s``: how upright counts as upright (deg)."""
+    pose_upright_s: float = 0.0
+    """Blend all actions, over this long (s), to the fixed stance ``pose_upright`` once the
+    trunk has been upright within ``zero_hips_tilt_deg`` for ``pose_upright_delay_s``
+    (``selfright.policies.variants.PoseUpright``); 0 = off."""
+    pose_upright_delay_s: float = 0.0
+    """With ``pose_upright_s``: how long the trunk must have been upright before the blend starts (s)."""
+    pose_upright: tuple[float, float, float] = (0.0, 0.46, -0.92)
+    """With ``pose_upright_s``: the stance's hip, thigh and knee angles (rad), the same on
+    every leg. The default has the knee at its limit and the foot under the hip: 0.38 m from
+    hip axis to ground."""
     smooth_last: bool = False
     """With ``smooth``: low-pass only the last policy of a composite (the tilted one: the escape),
     which then sees every step (``feed_both``) so its filter runs on between hand-overs; off =
@@ -96,12 +110,27 @@ class Args:
 def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if a.smooth_last and not (a.smooth > 0 and (a.tilt_deg > 0 or a.fallback_s > 0)):
         raise ValueError("--smooth-last takes --smooth and a composite (--tilt-deg or --fallback-s)")
+    if a.zero_hips_upright_s > 0 and a.pose_upright_s > 0:
+        raise ValueError("give --zero-hips-upright-s or --pose-upright-s, not both")
     policy = _make_variant(a, cfg)
+    robot, dt = get_robot(cfg.robot.name), cfg.sim.control_dt_s
     if a.zero_hips_upright_s > 0:
-        hips = [i for i, n in enumerate(get_robot(cfg.robot.name).joint_names) if "hip" in n]
-        ramp = max(1, round(a.zero_hips_upright_s / cfg.sim.control_dt_s))
-        policy = HipsZeroedUpright(policy, a.zero_hips_tilt_deg, ramp, hips)
+        hips = [i for i, n in enumerate(robot.joint_names) if "hip" in n]
+        policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.zero_hips_upright_s / dt)), hips)
+    if a.pose_upright_s > 0:
+        policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)),
+                             range(len(robot.joint_names)), stance_action(robot, cfg, a.pose_upright),
+                             round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}")
     return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
+
+
+def stance_action(robot, cfg: BenchmarkConfig, leg: tuple[float, float, float]) -> np.ndarray:
+    """(J,) the action, under the benchmark's action mapping, whose targets are the hip, thigh
+    and knee angles ``leg`` (rad) on every leg."""
+    ref = robot.reference_pose(cfg.action.reference)
+    if ref is None:
+        raise ValueError("--pose-upright-s needs a fixed action reference, not 'current'")
+    return (np.tile(np.asarray(leg), len(robot.joint_names) // 3) - ref) / cfg.action.scale_rad
 
 
 def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
@@ -170,6 +199,8 @@ def main(a: Args) -> None:
     name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
     name += (f" (hips to 0 over {a.zero_hips_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg)"
              if a.zero_hips_upright_s > 0 else "")
+    name += (f" (stance {a.pose_upright} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
+             f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

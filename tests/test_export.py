@@ -387,8 +387,8 @@ def test_smoothed_policy_low_passes_each_slot_from_its_episode_start():
         Smoothed(_Echo(), 1.0)
 
 
-def test_hips_zeroed_upright_ramps_only_the_hips_of_upright_slots():
-    from selfright.policies.variants import HipsZeroedUpright
+def test_pose_upright_ramps_only_its_columns_of_upright_slots():
+    from selfright.policies.variants import PoseUpright
 
     class _Ones(Policy):
         def act(self, obs, ids, contexts):
@@ -399,7 +399,7 @@ def test_hips_zeroed_upright_ramps_only_the_hips_of_upright_slots():
         x[:, 2] = torch.tensor(gz)
         return {"student": x}
 
-    p = HipsZeroedUpright(_Ones(), 15.0, 4, [0, 3, 6, 9])
+    p = PoseUpright(_Ones(), 15.0, 4, [0, 3, 6, 9])
     ids = np.array([0, 1])
     p.reset(ids)
     for _ in range(2):
@@ -413,4 +413,10 @@ def test_hips_zeroed_upright_ramps_only_the_hips_of_upright_slots():
     p.reset(ids[1:])
     assert p.act(obs(0.0, -1.0), ids, [None] * 2)[1, 0].item() == 0.75  # a new episode starts its ramp afresh
     with pytest.raises(ValueError, match="ramp"):
-        HipsZeroedUpright(_Ones(), 15.0, 0, [0])
+        PoseUpright(_Ones(), 15.0, 0, [0])
+    q = PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0, -1.0], delay_steps=2)  # a stance, after a delay
+    q.reset(ids)
+    got = [q.act(obs(-1.0, 0.0), ids, [None] * 2)[0, [1, 2]].tolist() for _ in range(4)]
+    assert got == [[1.0, 1.0], [1.0, 1.0], [2.0, 0.0], [3.0, -1.0]]
+    with pytest.raises(ValueError, match="one target per column"):
+        PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0])

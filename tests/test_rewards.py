@@ -142,3 +142,21 @@ def test_goal_set_term_is_off_by_default_and_pays_in_goal():
     torch.testing.assert_close(total - base, torch.tensor([5.0 * 0.02, 0.0, 0.0]))
     with pytest.raises(ValueError):
         R.weighted_rewards(rs, dataclasses.replace(ctx, in_goal=None), RewardConfig(goal_set=5.0), 0.02)
+
+
+def test_stance_term_is_off_by_default_and_pays_only_upright_on_four_feet():
+    rs = make_state()
+    pose = (0.0, 0.5, -1.0)
+    k = R.stance_kernel(rs, pose, 0.25)
+    # env 0 is upright on four feet with q = 0: ‖q − q*‖² = 4 · (0.25 + 1.0) = 5; the others are gated off
+    torch.testing.assert_close(k, torch.tensor([math.exp(-5.0 / 0.25), 0.0, 0.0]))
+    rs.q[0] = torch.tensor(pose).repeat(4)
+    assert R.stance_kernel(rs, pose, 0.25)[0].item() == pytest.approx(1.0)
+    ctx = R.RewardContext(
+        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
+    )
+    base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
+    assert "stance" not in terms  # Table I exactly
+    total, terms = R.weighted_rewards(rs, ctx, RewardConfig(stance=4.0, stance_pose=pose), 0.02)
+    torch.testing.assert_close(total - base, torch.tensor([4.0 * 0.02, 0.0, 0.0]))

@@ -169,6 +169,16 @@ class RewardConfig:
     """**Not in Table I.** Weight of 1 while the robot is in the goal set (per s). The default
     0 trains on Table I exactly (the shipped policies); a positive weight is for ablations
     that align the reward with the benchmark's success (docs/training.md)."""
+    stance: float = 0.0
+    """**Not in Table I.** Weight of exp(−‖q − q_stance‖² / ``stance_sigma_sq``) while the
+    trunk is within 30° of upright on all four feet, else 0 (per s): pays for standing in the
+    fixed ``stance_pose``. The default 0 trains on Table I exactly; a positive weight is an
+    ablation for the low, splayed stances the rough policies end in (docs/training.md)."""
+    stance_pose: tuple[float, float, float] = (0.0, 0.46, -0.92)
+    """With ``stance``: the hip, thigh and knee angles (rad) of every leg. The default puts the
+    knee at its limit and the foot under the hip: 0.38 m from hip axis to ground on the A1."""
+    stance_sigma_sq: float = 0.25
+    """With ``stance``: the kernel's width (rad²)."""
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None

@@ -8,6 +8,7 @@ and their sum, r_total = Σ_i w_i · r_i · dt.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import torch
@@ -79,6 +80,18 @@ def goal_set_indicator(in_goal: torch.Tensor) -> torch.Tensor:
     return in_goal.float()
 
 
+def stance_kernel(rs: RobotState, leg_pose: tuple[float, float, float], sigma_sq: float,
+                  max_tilt_deg: float = 30.0) -> torch.Tensor:
+    """(n,) exp(−‖q − q*‖² / sigma_sq), q* ``leg_pose`` (hip, thigh, knee; rad) on every leg,
+    where the trunk is within ``max_tilt_deg`` of upright with all feet down; 0 elsewhere. Not
+    a Table I term: used only with a nonzero ``RewardConfig.stance`` weight (ablations)."""
+    q = rs.q.float()
+    target = torch.as_tensor(leg_pose, dtype=q.dtype, device=q.device).repeat(q.shape[-1] // 3)
+    kernel = torch.exp(-(q - target).square().sum(dim=-1) / sigma_sq)
+    gate = rs.feet_contact.all(dim=-1) & (rs.up_z.float() >= math.cos(math.radians(max_tilt_deg)))
+    return kernel * gate.to(kernel.dtype)
+
+
 def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
     """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
     above the ground beneath as z is, of a robot standing square to the slope with its trunk
@@ -109,7 +122,7 @@ class RewardContext:
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` if its weight is nonzero."""
+    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` and ``stance`` where their weights are nonzero."""
     terms = {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
@@ -125,6 +138,8 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         if ctx.in_goal is None:
             raise ValueError("the goal_set reward term needs RewardContext.in_goal")
         terms["goal_set"] = goal_set_indicator(ctx.in_goal)
+    if cfg.stance != 0.0:
+        terms["stance"] = stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq)
     return terms
 
 
@@ -143,6 +158,8 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
     }
     if cfg.goal_set != 0.0:
         weights["goal_set"] = cfg.goal_set
+    if cfg.stance != 0.0:
+        weights["stance"] = cfg.stance
     return weights
 
 

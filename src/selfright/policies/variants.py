@@ -1,7 +1,7 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
 actions from its training noise instead of acting with the mean, an ensemble acting with the
 mean of its members' actions, one whose actions are low-passed, one whose hips are
-zeroed once upright, and one that hands over to a second policy when it stalls or
+blended to a fixed pose once upright, and one that hands over to a second policy when it stalls or
 while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labelled the shipped
 ``flat`` student's distillation)."""
 
@@ -154,21 +154,31 @@ class Smoothed(Policy):
         return out.to(a.device, a.dtype)
 
 
-class HipsZeroedUpright(Policy):
+class PoseUpright(Policy):
     """``inner``, except that once the trunk has been upright (the IMU's projected gravity
-    within ``tilt_deg`` of down) its hip abduction actions are ramped to 0 over ``ramp_steps``
-    control steps, and back when it tilts over: a stance with the legs in their sagittal
-    planes. Asks whether the twisted stance the rough policies end in is what keeps their
-    trunk under the goal bar; ``scripts/policy_variants.py --zero-hips-upright-s``."""
+    within ``tilt_deg`` of down) for ``delay_steps`` control steps, the actions of ``columns``
+    are blended towards ``target`` (action units) over ``ramp_steps`` more steps, and handed
+    back at once when it tilts over. With the hips and a target of 0 this is a stance with the
+    legs in their sagittal planes; with thighs and knees too, a fixed tall stance with the feet
+    under the hips. Asks whether the stance the rough policies end in is what keeps their trunk
+    under the goal bar (``scripts/policy_variants.py --zero-hips-upright-s``,
+    ``--pose-upright-s``)."""
 
-    def __init__(self, inner: Policy, tilt_deg: float, ramp_steps: int, hip_columns: Sequence[int]):
+    def __init__(self, inner: Policy, tilt_deg: float, ramp_steps: int, columns: Sequence[int],
+                 target: Sequence[float] | None = None, delay_steps: int = 0, label: str = "hips to 0"):
         if ramp_steps < 1:
-            raise ValueError(f"the hip ramp needs at least one step, got {ramp_steps}")
-        self.inner, self.ramp, self.hips = inner, int(ramp_steps), list(hip_columns)
+            raise ValueError(f"the pose ramp needs at least one step, got {ramp_steps}")
+        if delay_steps < 0:
+            raise ValueError(f"the pose delay cannot be negative, got {delay_steps}")
+        self.inner, self.ramp, self.delay, self.cols = inner, int(ramp_steps), int(delay_steps), list(columns)
+        self.target = torch.zeros(len(self.cols)) if target is None else torch.as_tensor(target, dtype=torch.float32)
+        if self.target.shape != (len(self.cols),):
+            raise ValueError(f"one target per column: {len(self.cols)} columns, target of shape {tuple(self.target.shape)}")
         self._tilted = TiltSwitch(tilt_deg)  # upright = not tilted over tilt_deg, as for the composites
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
-        self.name = f"{inner.name} (hips to 0 upright within {tilt_deg:g} deg, over {ramp_steps} steps)"
+        self.name = (f"{inner.name} ({label} upright within {tilt_deg:g} deg, after {delay_steps} steps, "
+                     f"over {ramp_steps} steps)")
         self._upright_steps = torch.zeros(0)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
@@ -183,8 +193,8 @@ class HipsZeroedUpright(Policy):
         self._upright_steps = grown(self._upright_steps, t)
         up = ~self._tilted.step(obs["student"], t)
         self._upright_steps[t] = torch.where(up, self._upright_steps[t] + 1.0, torch.zeros(()))
-        keep = (1.0 - (self._upright_steps[t] / self.ramp).clamp(max=1.0)).to(a.device, a.dtype)
-        a[:, self.hips] *= keep[:, None]
+        w = ((self._upright_steps[t] - self.delay) / self.ramp).clamp(0.0, 1.0).to(a.device, a.dtype)[:, None]
+        a[:, self.cols] = (1.0 - w) * a[:, self.cols] + w * self.target.to(a.device, a.dtype)
         return a
 
 

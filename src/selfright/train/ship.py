@@ -206,10 +206,13 @@ def reward_summary(meta: dict[str, Any]) -> str:
     changed = [
         f"{f.name} {reward[f.name]} (Table I: {getattr(table, f.name)})"
         for f in fields(RewardConfig)
-        if f.name not in ("goal_set", "target_height_m") and f.name in reward and reward[f.name] != getattr(table, f.name)
+        if f.name not in ("goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq") and f.name in reward and reward[f.name] != getattr(table, f.name)
     ]
     if reward.get("goal_set"):
         changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
+    if reward.get("stance"):
+        pose = tuple(reward.get("stance_pose", table.stance_pose))
+        changed.append(f"stance term weight {reward['stance']} towards {pose} rad (not in Table I)")
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""
