@@ -88,7 +88,7 @@ class Args:
     (``selfright.policies.variants.Smoothed``); 0 = off."""
     zero_hips_upright_s: float = 0.0
     """Ramp the hip abduction actions to 0 over this long (s) once the trunk is upright within
-    ``zero_hips_tilt_deg`` (``selfright.policies.variants.HipsZeroedUpright``); 0 = off."""
+    ``zero_hips_tilt_deg`` (``selfright.policies.variants.PoseUpright`` on the hips); 0 = off."""
     zero_hips_tilt_deg: float = 15.0
     """With ``zero_hips_upright_s`` or ``pose_upright_s``: how upright counts as upright (deg)."""
     pose_upright_s: float = 0.0

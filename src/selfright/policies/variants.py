@@ -1,7 +1,7 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
 actions from its training noise instead of acting with the mean, an ensemble acting with the
-mean of its members' actions, one whose actions are low-passed, one whose hips are
-blended to a fixed pose once upright, and one that hands over to a second policy when it stalls or
+mean of its members' actions, one whose actions are low-passed, one whose joints are
+blended to a fixed pose once upright (the hips to 0, or a whole stance), and one that hands over to a second policy when it stalls or
 while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labelled the shipped
 ``flat`` student's distillation)."""
 

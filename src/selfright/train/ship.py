@@ -188,6 +188,10 @@ def model_card(
     return "\n".join(lines)
 
 
+OWN_WORDS = ("goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq")
+"""``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
+
+
 def reward_summary(meta: dict[str, Any]) -> str:
     """Which reward trained the policy (a student: its teacher's), against the seed's Table I:
     "Table I exactly (z* = …)" or the weights that differ, flagged as not Table I."""
@@ -206,7 +210,7 @@ def reward_summary(meta: dict[str, Any]) -> str:
     changed = [
         f"{f.name} {reward[f.name]} (Table I: {getattr(table, f.name)})"
         for f in fields(RewardConfig)
-        if f.name not in ("goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq") and f.name in reward and reward[f.name] != getattr(table, f.name)
+        if f.name not in OWN_WORDS and f.name in reward and reward[f.name] != getattr(table, f.name)
     ]
     if reward.get("goal_set"):
         changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
