@@ -152,6 +152,14 @@ def test_stance_term_is_off_by_default_and_pays_only_upright_on_four_feet():
     torch.testing.assert_close(k, torch.tensor([math.exp(-5.0 / 0.25), 0.0, 0.0]))
     rs.q[0] = torch.tensor(pose).repeat(4)
     assert R.stance_kernel(rs, pose, 0.25)[0].item() == pytest.approx(1.0)
+    # the goal set's tilt rule: rolled and pitched 25° each, the up axis is 35° off vertical but upright
+    tilted = dataclasses.replace(rs, rot=rs.rot.clone())
+    a = math.radians(25.0)
+    tilted.rot[0] = rot_x(a) @ torch.tensor([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+    assert tilted.up_z[0].item() < math.cos(math.radians(30.0))
+    assert R.stance_kernel(tilted, pose, 0.25)[0].item() == pytest.approx(1.0)
+    tilted.rot[0] = rot_x(math.radians(31.0))
+    assert R.stance_kernel(tilted, pose, 0.25)[0].item() == 0.0
     ctx = R.RewardContext(
         action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
         joint_low=LOW, joint_high=HIGH, target_height_m=0.32,

@@ -171,7 +171,8 @@ class RewardConfig:
     that align the reward with the benchmark's success (docs/training.md)."""
     stance: float = 0.0
     """**Not in Table I.** Weight of exp(−‖q − q_stance‖² / ``stance_sigma_sq``) while the
-    trunk is within 30° of upright on all four feet, else 0 (per s): pays for standing in the
+    trunk's roll and pitch are each within 30° (the goal set's tilt rule) on all four feet,
+    else 0 (per s): pays for standing in the
     fixed ``stance_pose``. The default 0 trains on Table I exactly; a positive weight is an
     ablation for the low, splayed stances the rough policies end in (docs/training.md)."""
     stance_pose: tuple[float, float, float] = (0.0, 0.46, -0.92)

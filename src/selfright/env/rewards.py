@@ -83,12 +83,14 @@ def goal_set_indicator(in_goal: torch.Tensor) -> torch.Tensor:
 def stance_kernel(rs: RobotState, leg_pose: tuple[float, float, float], sigma_sq: float,
                   max_tilt_deg: float = 30.0) -> torch.Tensor:
     """(n,) exp(−‖q − q*‖² / sigma_sq), q* ``leg_pose`` (hip, thigh, knee; rad) on every leg,
-    where the trunk is within ``max_tilt_deg`` of upright with all feet down; 0 elsewhere. Not
-    a Table I term: used only with a nonzero ``RewardConfig.stance`` weight (ablations)."""
+    where roll and pitch are each within ``max_tilt_deg`` (the goal set's tilt rule, as
+    ``selfright.env.goal.upright``) with all feet down; 0 elsewhere. Not a Table I term: used
+    only with a nonzero ``RewardConfig.stance`` weight (ablations)."""
     q = rs.q.float()
     target = torch.as_tensor(leg_pose, dtype=q.dtype, device=q.device).repeat(q.shape[-1] // 3)
     kernel = torch.exp(-(q - target).square().sum(dim=-1) / sigma_sq)
-    gate = rs.feet_contact.all(dim=-1) & (rs.up_z.float() >= math.cos(math.radians(max_tilt_deg)))
+    tilt = math.radians(max_tilt_deg)
+    gate = rs.feet_contact.all(dim=-1) & (rs.roll.abs() <= tilt) & (rs.pitch.abs() <= tilt)
     return kernel * gate.to(kernel.dtype)
 
 
