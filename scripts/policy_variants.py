@@ -29,13 +29,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import tyro
 
 from selfright.config import BenchmarkConfig
 from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
+from selfright.policies.pose_blend import stance_action
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import (
@@ -119,18 +119,9 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.zero_hips_upright_s / dt)), hips)
     if a.pose_upright_s > 0:
         policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)),
-                             range(len(robot.joint_names)), stance_action(robot, cfg, a.pose_upright),
+                             range(len(robot.joint_names)), stance_action(robot, cfg.action, a.pose_upright),
                              round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}")
     return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
-
-
-def stance_action(robot, cfg: BenchmarkConfig, leg: tuple[float, float, float]) -> np.ndarray:
-    """(J,) the action, under the benchmark's action mapping, whose targets are the hip, thigh
-    and knee angles ``leg`` (rad) on every leg."""
-    ref = robot.reference_pose(cfg.action.reference)
-    if ref is None:
-        raise ValueError("--pose-upright-s needs a fixed action reference, not 'current'")
-    return (np.tile(np.asarray(leg), len(robot.joint_names) // 3) - ref) / cfg.action.scale_rad
 
 
 def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:

@@ -530,8 +530,41 @@ def test_student_ppo_starts_as_the_student_with_the_teachers_critic_and_deploys_
     assert list_checkpoints(out)[-1][0] == 1
     moved = torch.load(list_checkpoints(out)[-1][1], weights_only=False)["actor_state_dict"]
     assert not torch.equal(moved["mlp.0.weight"], actor_before["mlp.0.weight"])  # after the warm-up PPO moves the actor
-    with pytest.raises(ValueError, match="starts from a student"):
+    with pytest.raises(ValueError, match="must be a student"):
         TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=teacher, init_from=teacher)).setup()
     card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
     assert f"PPO on its own observations from the distilled student `{student}`" in card
     assert "its last 2 frames stacked" in card and "distilled from" not in card
+
+
+def test_student_distils_a_fixed_stance_from_another_student(tmp_path: Path):
+    """--train.distillation.stance-ramp-s: the teacher is a student whose actions are blended to a
+    fixed stance once the trunk has been upright for the delay; the new student starts as a copy
+    of it, trains, resumes, and its model card says the labels are not the seed's recipe."""
+    _, base, _, base_file = _distil_tiny_student(tmp_path)
+    stance = dataclasses.replace(TINY.distillation, stance_ramp_s=0.02, stance_delay_s=0.02, stance_tilt_deg=179.0)
+    train = dataclasses.replace(TINY, distillation=stance)
+    out = tmp_path / "stance"
+    r = TrainingRun(spec(out, role="student", teacher=base, train=train))
+    r.setup()
+    obs = r.env.get_observations()
+    base_actions = load_policy_file(base_file).module(obs["student"].float())
+    torch.testing.assert_close(r.runner.get_inference_policy()(obs), base_actions, atol=1e-5, rtol=0)  # a copy
+    teacher = r.runner.alg.teacher
+    torch.testing.assert_close(teacher(obs), base_actions, atol=1e-5, rtol=0)  # upright 1 step: the delay
+    target = teacher.target.expand_as(base_actions)
+    torch.testing.assert_close(teacher(obs), target)  # 2 steps: delay and ramp done, the stance
+    teacher.reset(torch.tensor([True, False, False, False]))
+    labels = teacher(obs)
+    torch.testing.assert_close(labels[0], base_actions[0], atol=1e-5, rtol=0)
+    torch.testing.assert_close(labels[1:], target[1:])
+    r.run()
+    assert all(math.isfinite(v) for v in r.last_loss.values())
+    r = run(spec(out, role="student", teacher=base, train=train, iterations=2, resume=True))
+    assert list_checkpoints(out)[-1][0] == 1
+    assert load_policy_file(list_checkpoints(out)[-1][1]).module.meta.role == "student"
+    card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
+    assert f"distilled from `{list_checkpoints(base)[-1][1]}`" in card and "not the seed's recipe" in card
+    with pytest.raises(ValueError, match="stance-ramp-s"):
+        TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=tmp_path / "teacher", init_from=base,
+                         train=train)).setup()

@@ -17,6 +17,7 @@ from selfright.env.observations import privileged_columns
 from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.history import ObsHistory
+from selfright.policies.pose_blend import pose_blend, upright_count
 from selfright.policies.slots import grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
@@ -188,14 +189,12 @@ class PoseUpright(Policy):
         self._upright_steps[t] = 0.0
 
     def act(self, obs, ids, contexts):
-        a = self.inner.act(obs, ids, contexts).clone()
+        a = self.inner.act(obs, ids, contexts)
         t = slot_index(ids)
         self._upright_steps = grown(self._upright_steps, t)
         up = ~self._tilted.step(obs["student"], t)
-        self._upright_steps[t] = torch.where(up, self._upright_steps[t] + 1.0, torch.zeros(()))
-        w = ((self._upright_steps[t] - self.delay) / self.ramp).clamp(0.0, 1.0).to(a.device, a.dtype)[:, None]
-        a[:, self.cols] = (1.0 - w) * a[:, self.cols] + w * self.target.to(a.device, a.dtype)
-        return a
+        self._upright_steps[t] = upright_count(self._upright_steps[t], up)
+        return pose_blend(a, self._upright_steps[t], self.delay, self.ramp, self.target, self.cols)
 
 
 def trained_std(checkpoint: str) -> torch.Tensor:

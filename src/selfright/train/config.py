@@ -277,6 +277,19 @@ class DistillationConfig:
     """Per-iteration decay of an exponential moving average of the student's weights
     (``selfright.train.ema``), saved in every checkpoint and deployed instead of the raw
     weights; it spans about 1 / (1 − decay) iterations. 0 = off (the raw weights deploy)."""
+    stance_ramp_s: float = 0.0
+    """> 0: distil a fixed stance into a student (``selfright.train.stance_teacher``). The
+    ``--teacher`` is then a feed-forward *student* (run or checkpoint) whose own actions are
+    the labels, blended over this long (s) to ``stance_pose`` once the trunk has been upright
+    within ``stance_tilt_deg`` for ``stance_delay_s``; the new student starts as a copy of it.
+    **Not** the seed's recipe (its labels add a hand-set stance; model cards say so). 0 = off."""
+    stance_delay_s: float = 2.0
+    """With ``stance_ramp_s``: how long the trunk must have been upright before the blend starts (s)."""
+    stance_tilt_deg: float = 15.0
+    """With ``stance_ramp_s``: how close to upright counts as upright (deg, projected gravity)."""
+    stance_pose: tuple[float, float, float] = (0.0, 0.46, -0.92)
+    """With ``stance_ramp_s``: the stance's hip, thigh and knee angles (rad) on every leg: the
+    knee at its limit and the foot under the hip."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -34,6 +34,8 @@ from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m
+from selfright.policies.actor import teacher_checkpoint
+from selfright.policies.pose_blend import stance_action
 from selfright.policies.reference import reference_offset
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.train.checkpoints import (
@@ -44,10 +46,11 @@ from selfright.train.checkpoints import (
     read_meta,
     with_std_head,
 )
-from selfright.train.config import PolicyConfig, Role, TrainConfig
+from selfright.train.config import PolicyConfig, Role, TrainConfig, student_group
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
+from selfright.train.stance_teacher import StanceTeacher
 from selfright.train.student_ppo import attach_critic_warmup, load_student, student_ppo_start, student_train_config
 from selfright.train.override_mask import attach_override_mask
 from selfright.train.upright_override import load_upright_override
@@ -198,6 +201,9 @@ class TrainingRun:
         if d.rough_teacher is not None and (s.role != "student" or d.fallback_teacher is None):
             raise ValueError("--train.distillation.rough-teacher shares the upright states with the --teacher of a student "
                              "run that has --train.distillation.fallback-teacher")
+        if d.stance_ramp_s > 0 and (s.role != "student" or d.fallback_teacher is not None or d.student_gru > 0):
+            raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
+                             "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
         if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
             raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
                              "no --train.distillation.student-gru)")
@@ -233,7 +239,13 @@ class TrainingRun:
             s = self.spec = replace(s, train=student_train_config(s.train, self.init_student))
             self._check_student_mapping(self.init_student)
         teacher_policy, teacher_meta = (None, {})
-        if s.role in ("student", "student-ppo"):
+        self.stance_base = None
+        if s.role == "student" and s.train.distillation.stance_ramp_s > 0:  # the teacher is a student
+            self.stance_base = load_student(self.teacher_ckpt, "--teacher (with --train.distillation.stance-ramp-s)")
+            s = self.spec = replace(s, train=student_train_config(s.train, self.stance_base))
+            self._check_student_mapping(self.stance_base)
+            teacher_policy, teacher_meta = s.train.policy, read_meta(self.teacher_ckpt.parent)
+        elif s.role in ("student", "student-ppo"):
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
             if teacher_meta.get("context") not in (None, s.context):
                 print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
@@ -281,13 +293,15 @@ class TrainingRun:
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
         if fallback is not None:
             self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
+        if self.stance_base is not None:
+            self._install_stance_teacher(load_student_weights=self.resume_ckpt is None)
         resumed_infos: dict = {}
         if self.resume_ckpt is not None:
             resumed_infos = r.load(str(self.resume_ckpt)) or {}
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
             self.env.restore_curriculum(resumed_infos.get("curriculum_level"))
         elif s.role == "student":
-            if fallback is None:  # (with a fallback both teachers are loaded above)
+            if fallback is None and self.stance_base is None:  # (else the teachers are loaded above)
                 r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.role == "student-ppo":
             teacher = torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)
@@ -344,6 +358,25 @@ class TrainingRun:
         composite = FallbackTeacher(primary, second, s.num_envs, switch, offset).to(s.device).eval()
         alg.teacher = alg._raw_teacher = composite
         alg.teacher_loaded = True
+
+    def _install_stance_teacher(self, load_student_weights: bool) -> None:
+        """Replace rsl_rl's teacher by ``StanceTeacher`` around the ``--teacher`` student, and
+        (a new run) start the student as a copy of that student."""
+        s, alg, d = self.spec, self.runner.alg, self.spec.train.distillation
+        robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
+        base = self.stance_base.to(s.device).eval()
+        target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
+        teacher = StanceTeacher(base, student_group(d.student_history), s.num_envs, d.stance_tilt_deg,
+                                round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target)
+        alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
+        alg.teacher_loaded = True
+        if load_student_weights:
+            sd = teacher_checkpoint(self.stance_base)["actor_state_dict"]
+            if "obs_normalizer.count" in sd:  # the copied statistics move as slowly as a long run's
+                sd["obs_normalizer.count"] = torch.tensor(10**6)
+            own = alg.student.state_dict()
+            sd["distribution.std_param"] = own["distribution.std_param"]  # the rollout noise of --train.distillation.student-init-std
+            alg.student.load_state_dict(sd)
 
     def _second_teacher(self, path: Path, flag: str) -> tuple[nn.Module, torch.Tensor | None]:
         """A copy of the ``--teacher``'s network with ``path``'s weights, and the offset that

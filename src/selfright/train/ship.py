@@ -122,6 +122,18 @@ def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
     return fb, f" except for {d.get('fallback_s')} s after each stall, labelled by `{fb}`"
 
 
+def _stance_words(meta: dict[str, Any]) -> str:
+    """Words for a student distilled with stance labels (``--train.distillation.stance-ramp-s``); "" without."""
+    d = (meta.get("train_config") or {}).get("distillation") or {}
+    ramp = d.get("stance_ramp_s", 0.0)
+    if not ramp:
+        return ""
+    pose = ", ".join(f"{v:g}" for v in d.get("stance_pose", ()))
+    return (f"; its labels are that student's own actions, blended over {ramp:g} s to a fixed stance (hip, thigh, "
+            f"knee {pose} rad on every leg) once the trunk has been upright within {d.get('stance_tilt_deg', 15.0):g}° "
+            f"for {d.get('stance_delay_s', 2.0):g} s, and it started as a copy of that student (**not the seed's recipe**)")
+
+
 def _lineage(meta: dict[str, Any], teacher: str | None, fallback_words: str) -> str:
     """How the policy came from its teacher: distilled, or (student-ppo) PPO on its own
     observations from a distilled student, with the teacher's critic."""
@@ -143,6 +155,7 @@ def model_card(
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
     teacher = meta.get("teacher")
     fallback, fallback_words = _fallback_teacher(meta)
+    fallback_words += _stance_words(meta)
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     pol = meta.get("policy") or {}

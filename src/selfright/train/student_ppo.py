@@ -35,22 +35,22 @@ from selfright.train.config import TrainConfig
 __all__ = ["load_student", "student_train_config", "student_ppo_start", "attach_critic_warmup"]
 
 
-def load_student(path: Path) -> ActorMLP:
+def load_student(path: Path, flag: str = "--init-from") -> ActorMLP:
     """The distilled student to start from: a student run folder or ``model_<it>.pt``, a policy
     file from ``selfright export``, or a shipped policy name (``incline``). ``ValueError`` if it
     is not a feed-forward student."""
     p = path if path.exists() else shipped_path(str(path))
     if not p.exists():
-        raise ValueError(f"--init-from {path}: neither a run, a checkpoint, a policy file nor a shipped policy name")
+        raise ValueError(f"{flag} {path}: neither a run, a checkpoint, a policy file nor a shipped policy name")
     if p.is_dir():
         p = latest_checkpoint(p)
     actor = load_torch_actor(p)
     m = actor.meta
     if m.obs_group != "student":
-        raise ValueError(f"--init-from {p} reads the {m.obs_group!r} observations; --role student-ppo starts from a "
-                         "student (a teacher goes on training with --role teacher --init-from)")
+        raise ValueError(f"{flag} {p} reads the {m.obs_group!r} observations; it must be a student "
+                         "(a teacher goes on training with --role teacher --init-from)")
     if actor.recurrent or actor.estimator is not None:
-        raise ValueError(f"--init-from {p}: only feed-forward students (no GRU, no velocity estimator) go on with PPO")
+        raise ValueError(f"{flag} {p}: only feed-forward students (no GRU, no velocity estimator) here")
     return actor
 
 

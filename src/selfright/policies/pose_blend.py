@@ -1,0 +1,38 @@
+"""The blend towards a fixed pose once upright, shared by the evaluation variant
+``selfright.policies.variants.PoseUpright`` and the distillation teacher
+``selfright.train.stance_teacher.StanceTeacher``: per slot, a count of control steps the trunk
+has been upright, and a weight that ramps the actions to the pose once the count passes a delay."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from selfright.config import ActionConfig
+
+
+def upright_count(count: torch.Tensor, upright: torch.Tensor) -> torch.Tensor:
+    """(k,) control steps each slot has been upright, after this step: ``count`` + 1 where
+    ``upright`` (k,) bool, 0 where it is not."""
+    return torch.where(upright.to(count.device), count + 1.0, torch.zeros((), dtype=count.dtype))
+
+
+def pose_blend(actions: torch.Tensor, count: torch.Tensor, delay_steps: int, ramp_steps: int,
+               target: torch.Tensor, columns: list[int] | None = None) -> torch.Tensor:
+    """``actions`` (k, J) with ``columns`` (all when None) blended towards ``target`` (len(columns),)
+    by w = clamp((count − delay) / ramp, 0, 1): the slot's own action until the trunk has been
+    upright ``delay_steps`` steps, then the target after ``ramp_steps`` more."""
+    w = ((count - delay_steps) / ramp_steps).clamp(0.0, 1.0).to(actions.device, actions.dtype)[:, None]
+    out = actions.clone()
+    cols = list(range(actions.shape[1])) if columns is None else columns
+    out[:, cols] = (1.0 - w) * actions[:, cols] + w * target.to(actions.device, actions.dtype)
+    return out
+
+
+def stance_action(robot, action: ActionConfig, leg: tuple[float, float, float]) -> np.ndarray:
+    """(J,) the action, under the action mapping ``action``, whose targets are the hip, thigh and
+    knee angles ``leg`` (rad) on every leg of ``robot``. Needs a fixed action reference."""
+    ref = robot.reference_pose(action.reference)
+    if ref is None:
+        raise ValueError("a fixed stance needs a fixed action reference (stand / tall), not 'current'")
+    return (np.tile(np.asarray(leg, dtype=np.float64), len(robot.joint_names) // 3) - ref) / action.scale_rad

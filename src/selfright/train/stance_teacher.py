@@ -1,0 +1,57 @@
+"""A frozen teacher that labels a fixed tall stance: distilling the ``PoseUpright`` composite
+into a student.
+
+The rough students get up and then stand low, feet spread fore and aft of the hips; blending
+their actions to a fixed stance (feet under the hips, knees at their limit) once the trunk has
+settled upright is worth about 10 points on ``--grid rough`` (docs/training.md, *A fixed tall
+stance once upright*), and a stance reward under PPO did not find it. Here a student learns
+it by distillation: the labels are a base student's own actions, blended to the stance once
+the trunk has been upright (projected gravity within ``tilt_deg`` of down) for a delay, as
+``selfright.policies.variants.PoseUpright`` does at evaluation. The delay is a count of steps
+the student does not observe; what it learns is the expected label given its observation.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from selfright.policies.actor import ActorMLP
+from selfright.policies.pose_blend import pose_blend, upright_count
+from selfright.policies.stall import TiltSwitch
+
+
+class StanceTeacher(nn.Module):
+    """``base``'s actions on the ``group`` observation, blended over ``ramp_steps`` to ``target``
+    (J,) (action units) once the trunk has been upright for ``delay_steps`` control steps; handed
+    straight back when it tilts over. rsl_rl's ``Distillation`` calls ``reset(dones)`` every step."""
+
+    def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
+                 ramp_steps: int, target: torch.Tensor):
+        super().__init__()
+        if ramp_steps < 1 or delay_steps < 0:
+            raise ValueError(f"the stance needs a ramp of at least one step and a delay ≥ 0, got {ramp_steps}, {delay_steps}")
+        self.base, self.group = base, group
+        self.tilted = TiltSwitch(tilt_deg)
+        self.delay, self.ramp = int(delay_steps), int(ramp_steps)
+        self.register_buffer("target", torch.as_tensor(target, dtype=torch.float32))
+        self.count = torch.zeros(num_envs)
+        """Control steps each env's trunk has been upright (CPU)."""
+
+    @torch.no_grad()
+    def forward(self, obs) -> torch.Tensor:
+        x = obs["teacher"]  # the current frame's student columns come first (projected gravity at 0:3)
+        up = ~self.tilted.step(x, torch.arange(x.shape[0]))
+        self.count = upright_count(self.count, up)
+        return pose_blend(self.base(obs[self.group]), self.count, self.delay, self.ramp, self.target)
+
+    def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
+        if dones is not None:
+            # out of place: the count may have been made under rsl_rl's inference mode
+            self.count = self.count.masked_fill(dones.reshape(-1).bool().cpu(), 0.0)
+
+    def get_hidden_state(self):
+        return None
+
+    def detach_hidden_state(self, dones: torch.Tensor | None = None) -> None:
+        pass
