@@ -241,10 +241,11 @@ class TrainingRun:
         teacher_policy, teacher_meta = (None, {})
         self.stance_base = None
         if s.role == "student" and s.train.distillation.stance_ramp_s > 0:  # the teacher is a student
-            self.stance_base = load_student(self.teacher_ckpt, "--teacher (with --train.distillation.stance-ramp-s)")
+            flag = "--teacher (with --train.distillation.stance-ramp-s)"
+            self.stance_base = load_student(self.teacher_ckpt, flag)
             s = self.spec = replace(s, train=student_train_config(s.train, self.stance_base))
-            self._check_student_mapping(self.stance_base)
-            teacher_policy, teacher_meta = s.train.policy, read_meta(self.teacher_ckpt.parent)
+            self._check_student_mapping(self.stance_base, flag)
+            teacher_policy = s.train.policy  # (rsl_rl's own teacher is built, then replaced by StanceTeacher)
         elif s.role in ("student", "student-ppo"):
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
             if teacher_meta.get("context") not in (None, s.context):
@@ -330,10 +331,10 @@ class TrainingRun:
         self.base_wall = float(resumed_infos.get("wall_clock_s", self.prev_meta.get("wall_clock_s", 0.0)))
         self.t0 = time.time()
 
-    def _check_student_mapping(self, student) -> None:
+    def _check_student_mapping(self, student, flag: str = "--init-from") -> None:
         ref = student.meta.action_reference
         if ref and ref != self.spec.bench.action.reference:
-            raise ValueError(f"--init-from: the student was trained with --action-reference {ref}; go on with the same")
+            raise ValueError(f"{flag}: the student was trained with --action-reference {ref}; go on with the same")
 
     def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
         """Replace rsl_rl's teacher by ``FallbackTeacher`` (the ``--teacher`` and the fallback

@@ -134,13 +134,13 @@ def _stance_words(meta: dict[str, Any]) -> str:
             f"for {d.get('stance_delay_s', 2.0):g} s, and it started as a copy of that student (**not the seed's recipe**)")
 
 
-def _lineage(meta: dict[str, Any], teacher: str | None, fallback_words: str) -> str:
+def _lineage(meta: dict[str, Any], teacher: str | None, label_words: str) -> str:
     """How the policy came from its teacher: distilled, or (student-ppo) PPO on its own
     observations from a distilled student, with the teacher's critic."""
     if meta.get("role") == "student-ppo":
         return (f", trained with PPO on its own observations from the distilled student `{meta.get('init_from')}`, "
                 f"its privileged critic starting as `{teacher}`'s")
-    return f", distilled from `{teacher}`{fallback_words}" if teacher else ""
+    return f", distilled from `{teacher}`{label_words}" if teacher else ""
 
 
 def model_card(
@@ -155,7 +155,7 @@ def model_card(
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
     teacher = meta.get("teacher")
     fallback, fallback_words = _fallback_teacher(meta)
-    fallback_words += _stance_words(meta)
+    label_words = fallback_words + _stance_words(meta)  # how the distillation labels were made
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     pol = meta.get("policy") or {}
@@ -168,7 +168,7 @@ def model_card(
         + (f", through a GRU of {actor.gru_dim} units that remembers the episode" if actor.gru_dim > 0 else "")
         + (f", with a trunk-velocity estimator ({'-'.join(map(str, actor.estimator_dims))} units) trained on the "
            "privileged velocity, whose estimate its MLP reads)" if actor.estimator_dims else ")")
-        + _lineage(meta, teacher, fallback_words),
+        + _lineage(meta, teacher, label_words),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") and not ppo_student else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
