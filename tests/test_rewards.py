@@ -168,3 +168,25 @@ def test_stance_term_is_off_by_default_and_pays_only_upright_on_four_feet():
     assert "stance" not in terms  # Table I exactly
     total, terms = R.weighted_rewards(rs, ctx, RewardConfig(stance=4.0, stance_pose=pose), 0.02)
     torch.testing.assert_close(total - base, torch.tensor([4.0 * 0.02, 0.0, 0.0]))
+
+
+def test_upright_spin_term_is_off_by_default_and_charges_spin_only_near_upright():
+    rs = make_state()
+    rs.ang_vel[:] = torch.tensor([1.0, 2.0, 2.0])  # ‖ω‖² = 9 in every env
+    # env 0 is upright; env 1 on its side (90°) and env 2 upside down are outside 45°
+    torch.testing.assert_close(R.upright_spin_l2(rs), torch.tensor([-9.0, 0.0, 0.0]))
+    torch.testing.assert_close(R.upright_spin_l2(rs, max_tilt_deg=90.0), torch.tensor([-9.0, -9.0, 0.0]))
+    tilted = dataclasses.replace(rs, rot=rs.rot.clone())
+    tilted.rot[0] = rot_x(math.radians(44.0))
+    assert R.upright_spin_l2(tilted)[0].item() == pytest.approx(-9.0)
+    tilted.rot[0] = rot_x(math.radians(46.0))
+    assert R.upright_spin_l2(tilted)[0].item() == 0.0
+    ctx = R.RewardContext(
+        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
+    )
+    base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
+    assert "upright_spin" not in terms  # Table I exactly
+    total, terms = R.weighted_rewards(rs, ctx, RewardConfig(upright_spin=0.5), 0.02)
+    torch.testing.assert_close(total - base, torch.tensor([-0.5 * 9.0 * 0.02, 0.0, 0.0]))
+    torch.testing.assert_close(terms["upright_spin"], total - base)

@@ -180,6 +180,14 @@ class RewardConfig:
     knee at its limit and the foot under the hip: 0.38 m from hip axis to ground on the A1."""
     stance_sigma_sq: float = 0.25
     """With ``stance``: the kernel's width (rad²)."""
+    upright_spin: float = 0.0
+    """**Not in Table I.** Weight of −‖ω‖², ω the trunk's angular velocity (rad/s), while the
+    trunk's up axis is within ``upright_spin_tilt_deg`` of vertical, else 0 (per s): makes a
+    robot arriving upright slow its roll instead of carrying it on past upright (the incline's
+    re-falls: docs/training.md). The default 0 trains on Table I exactly; a positive weight is
+    an ablation."""
+    upright_spin_tilt_deg: float = 45.0
+    """With ``upright_spin``: how close to upright the term applies (deg, up axis vs world z)."""
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None

@@ -94,6 +94,15 @@ def stance_kernel(rs: RobotState, leg_pose: tuple[float, float, float], sigma_sq
     return kernel * gate.to(kernel.dtype)
 
 
+def upright_spin_l2(rs: RobotState, max_tilt_deg: float = 45.0) -> torch.Tensor:
+    """(n,) −‖ω‖² (trunk angular velocity, rad²/s²) where the up axis is within ``max_tilt_deg``
+    of world z; 0 elsewhere. Not a Table I term: used only with a nonzero
+    ``RewardConfig.upright_spin`` weight (ablations)."""
+    spin = -rs.ang_vel.float().square().sum(dim=-1)
+    gate = rs.up_z >= math.cos(math.radians(max_tilt_deg))
+    return spin * gate.to(spin.dtype)
+
+
 def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
     """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
     above the ground beneath as z is, of a robot standing square to the slope with its trunk
@@ -124,7 +133,7 @@ class RewardContext:
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` and ``stance`` where their weights are nonzero."""
+    """Unweighted Table I terms by name, each (n,), plus ``goal_set``, ``stance`` and ``upright_spin`` where their weights are nonzero."""
     terms = {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
@@ -142,6 +151,8 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         terms["goal_set"] = goal_set_indicator(ctx.in_goal)
     if cfg.stance != 0.0:
         terms["stance"] = stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq)
+    if cfg.upright_spin != 0.0:
+        terms["upright_spin"] = upright_spin_l2(rs, cfg.upright_spin_tilt_deg)
     return terms
 
 
@@ -162,6 +173,8 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
         weights["goal_set"] = cfg.goal_set
     if cfg.stance != 0.0:
         weights["stance"] = cfg.stance
+    if cfg.upright_spin != 0.0:
+        weights["upright_spin"] = cfg.upright_spin
     return weights
 
 

@@ -201,7 +201,9 @@ def model_card(
     return "\n".join(lines)
 
 
-OWN_WORDS = ("goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq")
+OWN_WORDS = (
+    "goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq", "upright_spin", "upright_spin_tilt_deg",
+)
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
 
@@ -230,6 +232,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if reward.get("stance"):
         pose = tuple(reward.get("stance_pose", table.stance_pose))
         changed.append(f"stance term weight {reward['stance']} towards {pose} rad (not in Table I)")
+    if reward.get("upright_spin"):
+        tilt = reward.get("upright_spin_tilt_deg", table.upright_spin_tilt_deg)
+        changed.append(f"upright-spin term −{reward['upright_spin']} · ‖ω‖² within {tilt}° of upright (not in Table I)")
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""

@@ -1,0 +1,84 @@
+"""Does a fixed, symmetric stance stand on a slope? The robot is set down square to the slope
+(trunk parallel to it, feet 2 cm above it) at each heading, its PD targets held at one pose
+for ``--hold-s``, and the script prints its tilt from vertical at the end (the goal set asks
+for roll and pitch within 30°; a robot that tipped over reads 60–180°).
+
+Held PD targets are not rigid legs: the slope's pull along the ground loads the legs
+sideways, the PD-held joints give (Kp 50 N·m/rad), the trunk shifts downhill, the downhill
+legs take more load and give more, and the robot tips over. On the 20° incline neither the
+A1's stand pose nor the tall stance of ``--train.reward.stance`` /
+``--train.distillation.stance-pose`` stays up at any heading; from 10° facing uphill they tip
+backwards. So on the incline standing is an active, heading-dependent posture the policy has
+to keep adjusting, and the fixed-stance recipes that helped on rough ground
+(docs/training.md) do not carry over to it.
+
+    python scripts/slope_stance.py                       # 0°, 10°, 15°, 20°
+    python scripts/slope_stance.py --slopes-deg 20 --friction 0.6
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import mujoco
+import numpy as np
+import tyro
+
+from selfright.config import BenchmarkConfig, ContextConfig
+from selfright.env.world import build_world
+from selfright.robots import get_robot
+from selfright.terrain.grid import grid_cells
+
+POSES = {"tall stance": (0.0, 0.46, -0.92), "A1 stand": (0.0, 0.6, -1.2)}
+"""Hip, thigh, knee (rad) on every leg: the stance of ``--train.reward.stance`` /
+``--train.distillation.stance-pose``, and the A1's stand pose."""
+
+
+@dataclass(frozen=True)
+class Args:
+    slopes_deg: tuple[float, ...] = (0.0, 10.0, 15.0, 20.0)
+    headings_deg: tuple[float, ...] = (0.0, 45.0, 90.0, 135.0, 180.0)
+    """Heading on the slope: 0 = facing uphill, 90 = across, 180 = facing downhill (the other
+    side is the mirror image)."""
+    friction: float = 1.0
+    hold_s: float = 4.0
+
+
+def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, hold_s: float) -> float:
+    """Tilt of the trunk's up axis from world z (deg) after holding ``pose`` for ``hold_s``,
+    set down square to a slope rising along +x at ``heading_rad``."""
+    d = mujoco.MjData(model)
+    q_slope, q_head, quat = np.zeros(4), np.zeros(4), np.zeros(4)
+    mujoco.mju_axisAngle2Quat(q_slope, np.array([0.0, 1.0, 0.0]), -slope_rad)  # nose up along +x
+    mujoco.mju_axisAngle2Quat(q_head, np.array([0.0, 0.0, 1.0]), heading_rad)
+    mujoco.mju_mulQuat(quat, q_slope, q_head)
+    leg_m = 0.2 * math.cos(pose[1]) + 0.2 * math.cos(pose[1] + pose[2]) + 0.02 + 0.02
+    normal = np.array([-math.sin(slope_rad), 0.0, math.cos(slope_rad)])
+    d.qpos[:3] = normal * leg_m
+    d.qpos[3:7] = quat
+    d.qpos[7:] = pose
+    d.ctrl[:] = pose
+    for _ in range(int(round(hold_s / model.opt.timestep))):
+        mujoco.mj_step(model, d)
+    x, y = d.qpos[4], d.qpos[5]
+    return math.degrees(math.acos(float(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))))
+
+
+def main(a: Args) -> None:
+    cfg = BenchmarkConfig()
+    robot = get_robot(cfg.robot.name)
+    base = grid_cells("incline", cfg.terrain)[0]
+    print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}; "
+          f"headings {', '.join(f'{h:g}' for h in a.headings_deg)}° (0 = facing uphill)")
+    for deg in a.slopes_deg:
+        cell = replace(base, slope_pct=100.0 * math.tan(math.radians(deg)))
+        model = build_world(cell, cfg, ContextConfig(friction=a.friction), 0, robot=robot).model
+        for name, leg in POSES.items():
+            pose = np.tile(np.asarray(leg), len(robot.joint_names) // 3)
+            tilts = [final_tilt_deg(model, math.radians(deg), math.radians(h), pose, a.hold_s) for h in a.headings_deg]
+            print(f"  slope {deg:4.1f}°  {name:12s} " + "  ".join(f"{t:5.0f}" for t in tilts))
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))
