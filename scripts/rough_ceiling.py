@@ -6,7 +6,10 @@ tiles that ground is not the ground under the feet, so a robot standing perfectl
 This script samples stance positions (uniform over the central 80 % of each tile, every
 heading, feet at the A1's stance footprint) on the tiles of a named grid and prints, per
 tile, the fraction of stances that clear the bar for several stance heights. It is the
-success ceiling of a policy that stands at height ``h`` wherever it happens to get up.
+success ceiling of a policy that stands at height ``h`` wherever it happens to get up; the
+grid mean row is the grid's rate (cells weigh alike). The last columns say how much the
+trunk's offset varies and how much of it (R²) the four feet's relative heights explain: what
+a robot that feels the ground only with its feet could know of the ground under its trunk.
 
     python scripts/rough_ceiling.py                      # --grid rough, seed 0
     python scripts/rough_ceiling.py --grid quick --samples 5000
@@ -53,16 +56,32 @@ class Args:
     """Stance heights above the mean foot ground to report (m)."""
 
 
-def clear_fraction(tile, bar_m: float, heights: tuple[float, ...], samples: int, rng: np.random.Generator) -> dict[float, float]:
+def sample_stances(tile, samples: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(samples, 2) trunk x-y, uniform over the central 80 % of the tile at uniform headings,
+    and (samples, 4) the ground height under each foot."""
     half = 0.4 * tile.size_m
     xy = rng.uniform(-half, half, size=(samples, 2))
     yaw = rng.uniform(0.0, 2 * np.pi, samples)
     c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
     fx = xy[:, :1] + c * FOOTPRINT_M[:, 0] - s * FOOTPRINT_M[:, 1]
     fy = xy[:, 1:] + s * FOOTPRINT_M[:, 0] + c * FOOTPRINT_M[:, 1]
-    feet = tile.height_at(np.stack([fx.ravel(), fy.ravel()], -1)).reshape(samples, 4).mean(1)
-    offset = feet - tile.height_at(xy)
+    return xy, tile.height_at(np.stack([fx.ravel(), fy.ravel()], -1)).reshape(samples, 4)
+
+
+def clear_fraction(offset: np.ndarray, bar_m: float, heights: tuple[float, ...]) -> dict[float, float]:
+    """Share of stances, trunk ``h`` over the mean foot ground and ``offset`` = mean foot ground
+    − ground under the trunk, that clear the bar, for each ``h``."""
     return {h: float(np.mean(h + offset >= bar_m)) for h in heights}
+
+
+def feet_r2(offset: np.ndarray, feet: np.ndarray) -> float:
+    """How much of ``offset``'s variance the feet's relative heights explain (least squares on
+    the heights about their mean, their squares and magnitudes): what a robot that feels the
+    ground only at its feet could know of the ground under its trunk."""
+    dev = feet - feet.mean(axis=1, keepdims=True)
+    x = np.column_stack([np.ones(len(dev)), dev, dev**2, np.abs(dev)])
+    coef, *_ = np.linalg.lstsq(x, offset, rcond=None)
+    return float(1.0 - np.var(offset - x @ coef) / np.var(offset))
 
 
 def main(a: Args) -> None:
@@ -71,14 +90,17 @@ def main(a: Args) -> None:
     bar = goal_height_m(cfg.goal, robot.leg_length_m)
     rng = np.random.default_rng(a.seed)
     print(f"goal bar {bar:.3f} m above the ground beneath the trunk; robot stand height {robot.stand_height_m} m")
-    print("slope%  rough_lvl  extent_m  " + "  ".join(f"h={h:.2f}" for h in a.heights))
+    print("slope%  rough_lvl  extent_m  " + "  ".join(f"h={h:.2f}" for h in a.heights) + "  offset_std_m  feet_R2")
     rows = []
     for cell in grid_cells(a.grid, cfg.terrain):
         tile = build_world(cell, cfg, ContextConfig(), a.seed).tile
-        frac = clear_fraction(tile, bar, a.heights, a.samples, rng)
+        xy, feet = sample_stances(tile, a.samples, rng)
+        offset = feet.mean(axis=1) - tile.height_at(xy)
+        frac = clear_fraction(offset, bar, a.heights)
         rows.append(frac)
+        r2 = f"{feet_r2(offset, feet):7.2f}" if offset.std() > 1e-6 else "      –"
         print(f"{cell.slope_pct:6.0f}  {cell.roughness_level:9d}  {cell.roughness_extent_m:8.3f}  "
-              + "  ".join(f"{100 * frac[h]:5.1f}%" for h in a.heights))
+              + "  ".join(f"{100 * frac[h]:5.1f}%" for h in a.heights) + f"  {offset.std():12.3f}  {r2}")
     # The grid's success rate weighs every cell alike (same episodes per cell).
     print(f"{'grid mean':>27s}  " + "  ".join(f"{100 * np.mean([r[h] for r in rows]):5.1f}%" for h in a.heights))
     print(f"(the A1 stands at most {reach_m(robot):.3f} m over its feet: knee at its limit, foot under the hip,"
