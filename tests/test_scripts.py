@@ -33,11 +33,23 @@ def failure_classes(out: str) -> list[int]:
 
 def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
     run_script("rough_ceiling.py", ["--grid", "rough", "--samples", "500", "--heights", "0.35", "0.7"], monkeypatch)
-    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip().startswith("0 ")]
+    out = capsys.readouterr().out.splitlines()
+    rows = [line.split() for line in out if line.strip().startswith("0 ")]
     assert len(rows) == 3
-    for row in rows:
-        low, high = (float(v.rstrip("%")) for v in row[-2:])
+    for row in rows:  # slope, level, extent, h=0.35, h=0.7, offset spread, R² of the feet
+        low, high = (float(v.rstrip("%")) for v in row[3:5])
         assert 0.0 <= low <= high == 100.0  # 0.7 m minus the largest extent (0.32 m) still clears 0.32 m
+        assert float(row[5]) > 0.0 and -0.05 <= float(row[6]) <= 1.0
+    (mean,) = [line.split() for line in out if line.strip().startswith("grid mean")]
+    assert float(mean[2].rstrip("%")) == pytest.approx(np.mean([float(r[3].rstrip("%")) for r in rows]), abs=0.06)
+
+
+def test_slope_stance_stands_on_the_plane_and_tips_facing_up_the_incline(monkeypatch, capsys):
+    run_script("slope_stance.py", ["--slopes-deg", "0", "20", "--headings-deg", "0", "90"], monkeypatch)
+    tilts = {tuple(line.split()[1:4]): [float(v) for v in line.split()[-2:]]
+             for line in capsys.readouterr().out.splitlines() if line.strip().startswith("slope")}
+    assert max(tilts[("0.0°", "tall", "stance")] + tilts[("0.0°", "A1", "stand")]) < 5.0
+    assert min(tilts[("20.0°", "tall", "stance")] + tilts[("20.0°", "A1", "stand")]) > 60.0  # tipped over
 
 
 def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
