@@ -20,11 +20,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import torch
 import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig
 from selfright.env.goal import goal_height_m
 from selfright.env.world import build_world
+from selfright.robots.kinematics import KinematicHeight
 from selfright.robots import get_robot
 from selfright.terrain.grid import grid_cells
 
@@ -32,16 +34,13 @@ FOOTPRINT_M = np.array([[0.183, 0.13], [0.183, -0.13], [-0.183, 0.13], [-0.183, 
 """Stance foot positions in the trunk frame (x, y), A1 (hip at ±0.183, ±0.047 plus the thigh offset)."""
 
 
-FOOT_RADIUS_M = 0.02
-"""A1 foot sphere."""
-
-
 def reach_m(robot) -> float:
-    """Hip axis to ground with the knee at its upper limit and the thigh at half that, so the
-    foot is under the hip: leg length × cos(knee limit / 2) + the foot radius (0.379 m on the
-    A1, knee limit −0.916 rad). No leg pose stands taller; under load the PD-held knee sags
-    below it."""
-    return robot.leg_length_m * float(np.cos(robot.joint_high[2] / 2)) + FOOT_RADIUS_M
+    """Trunk over the feet's bottoms with every knee at its upper limit and the thigh at half
+    that, so the foot is under the hip (the robot's own forward kinematics; 0.379 m on the A1,
+    knee limit −0.916 rad). No leg pose stands taller; under load the PD-held knee sags below it."""
+    knee = robot.joint_high[2]
+    q = torch.tensor([[0.0, -knee / 2, knee] * (len(robot.joint_names) // 3)])
+    return float(KinematicHeight(robot)(torch.tensor([[0.0, 0.0, -1.0]]), q)[0])
 
 
 @dataclass(frozen=True)

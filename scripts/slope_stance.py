@@ -23,16 +23,17 @@ from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
+import torch
 import tyro
 
-from selfright.config import BenchmarkConfig, ContextConfig
+from selfright.config import BenchmarkConfig, ContextConfig, RewardConfig
 from selfright.env.world import build_world
 from selfright.robots import get_robot
+from selfright.robots.kinematics import KinematicHeight
 from selfright.terrain.grid import grid_cells
 
-POSES = {"tall stance": (0.0, 0.46, -0.92), "A1 stand": (0.0, 0.6, -1.2)}
-"""Hip, thigh, knee (rad) on every leg: the stance of ``--train.reward.stance`` /
-``--train.distillation.stance-pose``, and the A1's stand pose."""
+CLEARANCE_M = 0.02
+"""How far above the slope the feet are set down (m)."""
 
 
 @dataclass(frozen=True)
@@ -45,17 +46,18 @@ class Args:
     hold_s: float = 4.0
 
 
-def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, hold_s: float) -> float:
+def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, height_m: float,
+                   hold_s: float) -> float:
     """Tilt of the trunk's up axis from world z (deg) after holding ``pose`` for ``hold_s``,
-    set down square to a slope rising along +x at ``heading_rad``."""
+    set down square to a slope rising along +x at ``heading_rad``, the trunk ``height_m``
+    above it along its normal."""
     d = mujoco.MjData(model)
     q_slope, q_head, quat = np.zeros(4), np.zeros(4), np.zeros(4)
     mujoco.mju_axisAngle2Quat(q_slope, np.array([0.0, 1.0, 0.0]), -slope_rad)  # nose up along +x
     mujoco.mju_axisAngle2Quat(q_head, np.array([0.0, 0.0, 1.0]), heading_rad)
     mujoco.mju_mulQuat(quat, q_slope, q_head)
-    leg_m = 0.2 * math.cos(pose[1]) + 0.2 * math.cos(pose[1] + pose[2]) + 0.02 + 0.02
     normal = np.array([-math.sin(slope_rad), 0.0, math.cos(slope_rad)])
-    d.qpos[:3] = normal * leg_m
+    d.qpos[:3] = normal * height_m
     d.qpos[3:7] = quat
     d.qpos[7:] = pose
     d.ctrl[:] = pose
@@ -69,14 +71,20 @@ def main(a: Args) -> None:
     cfg = BenchmarkConfig()
     robot = get_robot(cfg.robot.name)
     base = grid_cells("incline", cfg.terrain)[0]
+    legs = len(robot.joint_names) // 3
+    # The stance of --train.reward.stance / --train.distillation.stance-pose, and the A1's stand pose.
+    poses = {"tall stance": np.tile(np.asarray(RewardConfig().stance_pose), legs), "A1 stand": robot.stand_pose}
+    # Trunk over the feet's bottoms in each pose (the robot's own forward kinematics), plus the clearance.
+    height, down = KinematicHeight(robot), torch.tensor([[0.0, 0.0, -1.0]])
+    heights = {name: float(height(down, torch.as_tensor(q)[None])[0]) + CLEARANCE_M for name, q in poses.items()}
     print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}; "
           f"headings {', '.join(f'{h:g}' for h in a.headings_deg)}° (0 = facing uphill)")
     for deg in a.slopes_deg:
         cell = replace(base, slope_pct=100.0 * math.tan(math.radians(deg)))
         model = build_world(cell, cfg, ContextConfig(friction=a.friction), 0, robot=robot).model
-        for name, leg in POSES.items():
-            pose = np.tile(np.asarray(leg), len(robot.joint_names) // 3)
-            tilts = [final_tilt_deg(model, math.radians(deg), math.radians(h), pose, a.hold_s) for h in a.headings_deg]
+        for name, pose in poses.items():
+            tilts = [final_tilt_deg(model, math.radians(deg), math.radians(h), pose, heights[name], a.hold_s)
+                     for h in a.headings_deg]
             print(f"  slope {deg:4.1f}°  {name:12s} " + "  ".join(f"{t:5.0f}" for t in tilts))
 
 
