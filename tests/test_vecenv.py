@@ -435,3 +435,42 @@ def mujoco_up_z(q: np.ndarray) -> float:
     """World z of the body's up axis for a (w, x, y, z) quaternion."""
     w, x, y, z = q
     return 1.0 - 2.0 * (x * x + y * y)
+
+
+def test_refall_is_a_tip_past_the_limit_after_being_upright(flat_worlds):
+    """``RewardConfig.refall``: a re-fall is counted once when the up axis tips past
+    ``refall_tilt_deg`` after the robot has been upright (goal-set roll and pitch) since its
+    episode began or its last re-fall; a robot that was never upright, or stays tipped, is not
+    counted again."""
+    train = dataclasses.replace(TrainConfig(), reward=dataclasses.replace(TrainConfig().reward, refall=20.0))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=3, seed=1)
+    env.upright_since_fall[:] = False
+
+    def step(roll_rad):
+        roll = torch.tensor(roll_rad)
+        return env._refell(SimpleNamespace(roll=roll, pitch=torch.zeros(3), up_z=torch.cos(roll))).tolist()
+
+    assert step([0.1, 2.0, 0.8]) == [False] * 3  # slot 0 upright; slot 1 on its back; slot 2 at 46°
+    assert step([2.0, 2.0, 1.7]) == [True, False, False]  # slot 0 tipped past 90° after upright
+    assert step([2.5, 0.2, 2.0]) == [False] * 3  # counted once; slot 1 now upright
+    assert step([0.2, 1.8, 1.0]) == [False, True, False]
+    env.close()
+    off = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=3, seed=1)
+    off.upright_since_fall[:] = True
+    assert not off._refell(SimpleNamespace(roll=torch.full((3,), 2.0), pitch=torch.zeros(3), up_z=torch.full((3,), -0.4))).any()
+    off.close()
+
+
+def test_terminate_on_refall_ends_the_episode_as_terminal(flat_worlds):
+    """``terminate_on_refall``: the step with a re-fall ends its episode, not as a time-out, and
+    pays the ``refall`` penalty once."""
+    reward = dataclasses.replace(TrainConfig().reward, refall=20.0)
+    train = dataclasses.replace(TrainConfig(), reward=reward, episode=EpisodeConfig(terminate_on_refall=True))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
+    env._refell = lambda state: torch.tensor([True, False])  # noqa: E731 (the detection is tested above)
+    with torch.inference_mode():
+        _, _, dones, extras = env.step(torch.zeros(2, 12))
+    assert dones.tolist() == [True, False]
+    assert extras["time_outs"].tolist() == [False, False]
+    assert extras["log"]["Reward/refall"].item() == pytest.approx(-20.0 / 2)
+    env.close()

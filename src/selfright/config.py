@@ -188,6 +188,16 @@ class RewardConfig:
     an ablation."""
     upright_spin_tilt_deg: float = 45.0
     """With ``upright_spin``: how close to upright the term applies (deg, up axis vs world z)."""
+    refall: float = 0.0
+    """**Not in Table I.** Penalty paid once per *re-fall* (an event term: the weight is not
+    multiplied by dt): the trunk's up axis tips more than ``refall_tilt_deg`` from vertical
+    after the robot has been upright (roll and pitch each within the goal set's 30°) since its
+    last re-fall or the episode's start. Most of the incline's failures are such re-falls: a
+    stand-up that carries on past upright and down the slope (docs/training.md). The default
+    0 trains on Table I exactly; a positive weight is an ablation."""
+    refall_tilt_deg: float = 90.0
+    """With ``refall`` (or ``EpisodeConfig.terminate_on_refall``): the tilt of the up axis from
+    vertical that counts as having fallen again (deg)."""
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None

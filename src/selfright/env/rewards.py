@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import torch
 
@@ -103,6 +104,14 @@ def upright_spin_l2(rs: RobotState, max_tilt_deg: float = 45.0) -> torch.Tensor:
     return spin * gate.to(spin.dtype)
 
 
+def refall_event(refell: torch.Tensor) -> torch.Tensor:
+    """(n,) −1 where the robot has just fallen again after having been upright (``refell``,
+    (n,) bool, detected by the training env, which keeps the memory of having been upright),
+    else 0. Not a Table I term: an event term, paid once per re-fall with a nonzero
+    ``RewardConfig.refall`` weight (ablations)."""
+    return -refell.float()
+
+
 def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
     """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
     above the ground beneath as z is, of a robot standing square to the slope with its trunk
@@ -130,10 +139,32 @@ class RewardContext:
     """Standing height z* (m), a scalar or (n,) per env (see ``standing_height``)."""
     in_goal: torch.Tensor | None = None
     """(n,) bool, in the goal set after this step (needed only by the ``goal_set`` term)."""
+    refell: torch.Tensor | None = None
+    """(n,) bool, fell again this step after having been upright (needed only by ``refall``)."""
+
+
+def _needs(value: torch.Tensor | None, term: str, field: str) -> torch.Tensor:
+    if value is None:
+        raise ValueError(f"the {term} reward term needs RewardContext.{field}")
+    return value
+
+
+OptionalTerm = Callable[[RobotState, RewardContext, RewardConfig], torch.Tensor]
+OPTIONAL_TERMS: dict[str, OptionalTerm] = {
+    "goal_set": lambda rs, ctx, cfg: goal_set_indicator(_needs(ctx.in_goal, "goal_set", "in_goal")),
+    "stance": lambda rs, ctx, cfg: stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq),
+    "upright_spin": lambda rs, ctx, cfg: upright_spin_l2(rs, cfg.upright_spin_tilt_deg),
+    "refall": lambda rs, ctx, cfg: refall_event(_needs(ctx.refell, "refall", "refell")),
+}
+"""Terms outside Table I, each computed only where its ``RewardConfig`` weight (the field of
+the same name) is nonzero; the default config trains on Table I exactly."""
+EVENT_TERMS = frozenset({"refall"})
+"""Terms paid once per event: weighted w · r, not w · r · dt."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,), plus ``goal_set``, ``stance`` and ``upright_spin`` where their weights are nonzero."""
+    """Unweighted Table I terms by name, each (n,), plus those of ``OPTIONAL_TERMS`` whose
+    weights are nonzero."""
     terms = {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
@@ -145,14 +176,9 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         "joint_limits": joint_limit_violation(rs, ctx.joint_low, ctx.joint_high),
         "feet_contact": all_feet_contact(rs),
     }
-    if cfg.goal_set != 0.0:
-        if ctx.in_goal is None:
-            raise ValueError("the goal_set reward term needs RewardContext.in_goal")
-        terms["goal_set"] = goal_set_indicator(ctx.in_goal)
-    if cfg.stance != 0.0:
-        terms["stance"] = stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq)
-    if cfg.upright_spin != 0.0:
-        terms["upright_spin"] = upright_spin_l2(rs, cfg.upright_spin_tilt_deg)
+    for name, term in OPTIONAL_TERMS.items():
+        if getattr(cfg, name) != 0.0:
+            terms[name] = term(rs, ctx, cfg)
     return terms
 
 
@@ -169,21 +195,17 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
         "joint_limits": cfg.joint_limits,
         "feet_contact": cfg.feet_contact,
     }
-    if cfg.goal_set != 0.0:
-        weights["goal_set"] = cfg.goal_set
-    if cfg.stance != 0.0:
-        weights["stance"] = cfg.stance
-    if cfg.upright_spin != 0.0:
-        weights["upright_spin"] = cfg.upright_spin
+    weights.update({name: getattr(cfg, name) for name in OPTIONAL_TERMS if getattr(cfg, name) != 0.0})
     return weights
 
 
 def weighted_rewards(
     rs: RobotState, ctx: RewardContext, cfg: RewardConfig, dt: float
 ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
-    """r_total (n,) = Σ_i w_i · r_i · dt, and every weighted term w_i · r_i · dt (n,) by name."""
+    """r_total (n,) = Σ_i w_i · r_i · dt, and every weighted term w_i · r_i · dt (n,) by name
+    (``EVENT_TERMS``: w_i · r_i, paid once per event)."""
     terms = reward_terms(rs, ctx, cfg)
     weights = reward_weights(cfg)
-    weighted = {name: weights[name] * value * dt for name, value in terms.items()}
+    weighted = {name: weights[name] * value * (1.0 if name in EVENT_TERMS else dt) for name, value in terms.items()}
     total = torch.stack(list(weighted.values())).sum(dim=0)
     return total, weighted

@@ -75,6 +75,12 @@ class EpisodeConfig:
     the bar-based rule also ends proper stances (it ended 50–66 % of a rough teacher's episodes:
     docs/training.md); measured over the feet it ends only crouches, and a threshold above the
     bar asks for the taller stance that clears bumps. The goal set still clears the count."""
+    terminate_on_refall: bool = False
+    """End the episode as a terminal state at a re-fall (the up axis tips more than
+    ``RewardConfig.refall_tilt_deg`` from vertical after the robot has been upright: roll and
+    pitch each within the goal set's 30°). Off by default. A terminal state is worth 0 and a
+    robot lying on the ground earns less than that under Table I, so pair it with a
+    ``RewardConfig.refall`` penalty larger than the value of lying on."""
     replay_failed: float = 0.0
     """Share of new training episodes that replay the start of a recent failed one (the same
     fall-protocol draw on the same tile: position, orientation, joints; fresh randomisation

@@ -203,6 +203,7 @@ def model_card(
 
 OWN_WORDS = (
     "goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq", "upright_spin", "upright_spin_tilt_deg",
+    "refall", "refall_tilt_deg",
 )
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
@@ -235,14 +236,19 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if reward.get("upright_spin"):
         tilt = reward.get("upright_spin_tilt_deg", table.upright_spin_tilt_deg)
         changed.append(f"upright-spin term −{reward['upright_spin']} · ‖ω‖² within {tilt}° of upright (not in Table I)")
+    refall_tilt = reward.get("refall_tilt_deg", table.refall_tilt_deg)
+    if reward.get("refall"):
+        changed.append(f"re-fall penalty {reward['refall']} per tip past {refall_tilt}° after upright (not in Table I)")
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""
+    if episode.get("terminate_on_refall"):
+        rule += f"; training episodes ended as terminal at a tip past {refall_tilt}° after upright (not in the seed)"
     if low:
         stance = "three or four feet (a leaky count)" if episode.get("low_stance_leaky") else "four feet"
         over_feet = episode.get("low_stance_over_feet_m")
         bar = "the goal bar" if over_feet is None else f"{over_feet} m above the ground under the feet"
-        rule = f"; training episodes ended as terminal after {low} s upright on {stance} under {bar} (not in the seed)"
+        rule += f"; training episodes ended as terminal after {low} s upright on {stance} under {bar} (not in the seed)"
     if not changed:
         return f"{TABLE_I_WORDS} (z* = {z_txt}){rule}"
     return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt}){rule}"

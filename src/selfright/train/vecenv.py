@@ -25,6 +25,7 @@ completes (``success_is_timeout``: as a time-out).
 from __future__ import annotations
 
 import copy
+import math
 from collections import deque
 from typing import TYPE_CHECKING
 
@@ -109,6 +110,11 @@ class RecoveryVecEnv(VecEnv):
         """Control steps each slot has stood upright on four feet under the goal bar without a
         break (with ``low_stance_leaky``: the leaky count of ``_low_stance_ended``)."""
         self.goal_bar_m = goal_height_m(cfg.goal, robot.leg_length_m)
+        self.track_refall = train.reward.refall != 0.0 or ep.terminate_on_refall
+        self.refall_cos = math.cos(math.radians(train.reward.refall_tilt_deg))
+        self.upright_since_fall = torch.zeros(num_envs, dtype=torch.bool)
+        """Each slot has been upright (goal-set roll and pitch) since its episode began or its
+        last re-fall (``RewardConfig.refall``, ``EpisodeConfig.terminate_on_refall``)."""
         self.replay_share = ep.replay_failed
         self.restart_share = ep.restart_stuck
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
@@ -268,6 +274,7 @@ class RecoveryVecEnv(VecEnv):
         self.episode_length_buf[t] = 0
         self.tail_goal_steps[t] = 0
         self.low_streak[t] = 0
+        self.upright_since_fall[t] = False
         if self.student_frames is not None:
             self.student_frames.reset(ids)
         self.replayed[t] = torch.from_numpy(draw.replayed)
@@ -298,6 +305,7 @@ class RecoveryVecEnv(VecEnv):
         if self.action_override is not None:
             actions = self.action_override(self._obs["teacher"], actions)
         out = env.step(actions.detach().cpu())
+        refell = self._refell(out.state)
         ctx = RewardContext(
             action=env.prev_action,  # the clipped action just applied
             prev_action=prev_action,
@@ -306,6 +314,7 @@ class RecoveryVecEnv(VecEnv):
             joint_high=self.joint_high,
             target_height_m=self.world_target_m[torch.from_numpy(env.world_idx)],
             in_goal=out.in_goal,
+            refell=refell,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
@@ -325,6 +334,8 @@ class RecoveryVecEnv(VecEnv):
             terminated |= succeeded
         low_stance = self._low_stance_ended(out.state, out.in_goal)
         terminated |= low_stance
+        if ep.terminate_on_refall:
+            terminated |= refell
         time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile | succeeded) & ~terminated
         dones = terminated | time_out
 
@@ -344,6 +355,8 @@ class RecoveryVecEnv(VecEnv):
             log["Episode/left_tile_rate"] = left_tile[done_ids].float().mean()
             if self.low_stance_steps > 0:
                 log["Episode/low_stance_end_rate"] = low_stance[done_ids].float().mean()
+        if self.track_refall:
+            log["Metrics/refall_per_s"] = refell.float().mean() / self.dt
             log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
             if self.curriculum:
                 self._update_levels(done_ids, in_goal, left_tile[done_ids])
@@ -363,6 +376,18 @@ class RecoveryVecEnv(VecEnv):
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
+
+    def _refell(self, state: RobotState) -> torch.Tensor:
+        """(n,) bool: the trunk's up axis has just tipped more than ``RewardConfig.refall_tilt_deg``
+        from vertical after the robot was upright (roll and pitch within the goal set's tilt)
+        since its episode began or its last re-fall (all False when neither the ``refall`` term
+        nor ``terminate_on_refall`` is on)."""
+        if not self.track_refall:
+            return torch.zeros(self.num_envs, dtype=torch.bool)
+        fell = self.upright_since_fall & (state.up_z < self.refall_cos)
+        now_upright = upright(state.roll, state.pitch, self.env.cfg.goal)
+        self.upright_since_fall = (self.upright_since_fall | now_upright) & ~fell
+        return fell
 
     def _low_stance_ended(self, state: RobotState, in_goal: torch.Tensor) -> torch.Tensor:
         """(n,) bool: the robot has now stood upright on four feet under the goal bar (or under
