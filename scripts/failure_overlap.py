@@ -6,13 +6,17 @@ policies failed, and the share that at least one policy got up from.
     python scripts/failure_overlap.py results/A_s4 results/A_s5 results/B_s4 results/B_s5
 
 If the same falls defeat every policy, they are hard falls; if the failures scatter, each
-policy's misses are its own.
+policy's misses are its own. With exactly two policies it also prints the paired comparison:
+the episodes only one of them got up from and the exact two-sided McNemar p-value, the chance
+of a split at least that uneven if both policies were equally good on these falls (a
+difference of a point or two between two rates of 1,280 episodes is usually noise).
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,6 +54,16 @@ def outcomes(folders: tuple[Path, ...]) -> tuple[list[str], np.ndarray]:
     return names, np.array([[runs[n][k] for k in common] for n in names])
 
 
+def mcnemar_p(only_a: int, only_b: int) -> float:
+    """Exact two-sided McNemar p-value of ``only_a`` against ``only_b`` discordant episodes:
+    2 · P(X ≤ min) for X ~ Binomial(only_a + only_b, 1/2), capped at 1."""
+    n, k = only_a + only_b, min(only_a, only_b)
+    if n == 0:
+        return 1.0
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2.0**n
+    return min(1.0, 2.0 * tail)
+
+
 def main(a: Args) -> None:
     try:
         names, ok = outcomes(a.folders)
@@ -63,6 +77,10 @@ def main(a: Args) -> None:
     for k, count in enumerate(np.bincount(fails, minlength=len(names) + 1)):
         print(f"  {k:2d}: {count}")
     print(f"at least one policy succeeded: {ok.any(0).mean():.1%}; all failed: {(~ok).all(0).sum()} episodes")
+    if len(names) == 2:
+        only_a, only_b = int((ok[0] & ~ok[1]).sum()), int((ok[1] & ~ok[0]).sum())
+        print(f"paired: only {names[0]} got up in {only_a}, only {names[1]} in {only_b}; "
+              f"McNemar p = {mcnemar_p(only_a, only_b):.3f}")
 
 
 if __name__ == "__main__":

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import tyro
 
-TAGS = ("Episode_Reward/", "Metrics/in_goal", "Metrics/upright_cos", "Episode/success_rate", "Episode/left_tile_rate")
+TAGS = ("Episode_Reward/", "Metrics/in_goal", "Metrics/upright_cos", "Metrics/refall_per_s", "Episode/success_rate",
+        "Episode/left_tile_rate")
 
 
 @dataclass(frozen=True)

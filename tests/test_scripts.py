@@ -290,8 +290,17 @@ def test_failure_overlap_counts_shared_failures(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert "   0: 1" in out and "   1: 2" in out and "   2: 1" in out
     assert "at least one policy succeeded: 75.0%; all failed: 1 episodes" in out
+    assert "paired: only p on flat got up in 1, only q on flat in 1; McNemar p = 1.000" in out
     with pytest.raises(SystemExit, match="at least two policies"):
         run_script("failure_overlap.py", [str(tmp_path / "p")], monkeypatch)
+
+
+def test_mcnemar_p_is_the_exact_binomial_tail():
+    mcnemar_p = runpy.run_path(str(SCRIPTS / "failure_overlap.py"))["mcnemar_p"]
+    assert mcnemar_p(0, 0) == 1.0
+    assert mcnemar_p(5, 5) == 1.0
+    assert mcnemar_p(0, 5) == pytest.approx(2 / 32)  # 2 · 0.5⁵
+    assert mcnemar_p(10, 2) == pytest.approx(2 * (1 + 12 + 66) / 4096)
 
 
 def test_stance_under_noise_prints_shares_per_checkpoint_and_scale(tmp_path, monkeypatch, capsys):
