@@ -473,4 +473,17 @@ def test_terminate_on_refall_ends_the_episode_as_terminal(flat_worlds):
     assert dones.tolist() == [True, False]
     assert extras["time_outs"].tolist() == [False, False]
     assert extras["log"]["Reward/refall"].item() == pytest.approx(-20.0 / 2)
+    assert env.episode_length_buf.tolist() == [0, 1]  # slot 0 restarted
+    env.close()
+
+
+def test_finished_episodes_restart_with_every_option_off(flat_worlds):
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=2 * CFG.sim.control_dt_s))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
+    with torch.inference_mode():
+        env.step(torch.zeros(2, 12))
+        _, _, dones, extras = env.step(torch.zeros(2, 12))
+    assert dones.tolist() == [True, True] and extras["time_outs"].tolist() == [True, True]
+    assert env.episode_length_buf.tolist() == [0, 0]
+    assert "Metrics/refall_per_s" not in extras["log"] and extras["log"]["Episode/length_s"] == pytest.approx(0.04)
     env.close()

@@ -343,6 +343,8 @@ class RecoveryVecEnv(VecEnv):
         log["Reward/total"] = reward.mean()
         log["Metrics/in_goal"] = out.in_goal.float().mean()
         log["Metrics/upright_cos"] = out.state.up_z.float().mean()
+        if self.track_refall:
+            log["Metrics/refall_per_s"] = refell.float().mean() / self.dt
         for name, value in terms.items():
             self.episode_sums[name] += value
         done_ids = dones.nonzero(as_tuple=False).flatten()
@@ -355,8 +357,6 @@ class RecoveryVecEnv(VecEnv):
             log["Episode/left_tile_rate"] = left_tile[done_ids].float().mean()
             if self.low_stance_steps > 0:
                 log["Episode/low_stance_end_rate"] = low_stance[done_ids].float().mean()
-        if self.track_refall:
-            log["Metrics/refall_per_s"] = refell.float().mean() / self.dt
             log["Episode/length_s"] = self.episode_length_buf[done_ids].float().mean() * self.dt
             if self.curriculum:
                 self._update_levels(done_ids, in_goal, left_tile[done_ids])
