@@ -20,7 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig
@@ -39,8 +38,7 @@ def reach_m(robot) -> float:
     that, so the foot is under the hip (the robot's own forward kinematics; 0.379 m on the A1,
     knee limit −0.916 rad). No leg pose stands taller; under load the PD-held knee sags below it."""
     knee = robot.joint_high[2]
-    q = torch.tensor([[0.0, -knee / 2, knee] * (len(robot.joint_names) // 3)])
-    return float(KinematicHeight(robot)(torch.tensor([[0.0, 0.0, -1.0]]), q)[0])
+    return float(KinematicHeight(robot).level(np.array([[0.0, -knee / 2, knee] * (len(robot.joint_names) // 3)]))[0])
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,6 @@ from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
-import torch
 import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig, RewardConfig
@@ -75,8 +74,8 @@ def main(a: Args) -> None:
     # The stance of --train.reward.stance / --train.distillation.stance-pose, and the A1's stand pose.
     poses = {"tall stance": np.tile(np.asarray(RewardConfig().stance_pose), legs), "A1 stand": robot.stand_pose}
     # Trunk over the feet's bottoms in each pose (the robot's own forward kinematics), plus the clearance.
-    height, down = KinematicHeight(robot), torch.tensor([[0.0, 0.0, -1.0]])
-    heights = {name: float(height(down, torch.as_tensor(q)[None])[0]) + CLEARANCE_M for name, q in poses.items()}
+    level = KinematicHeight(robot).level(np.stack(list(poses.values())))
+    heights = {name: float(h) + CLEARANCE_M for name, h in zip(poses, level, strict=True)}
     print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}; "
           f"headings {', '.join(f'{h:g}' for h in a.headings_deg)}° (0 = facing uphill)")
     for deg in a.slopes_deg:

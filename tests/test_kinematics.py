@@ -32,6 +32,13 @@ def test_height_follows_gravity_and_the_lowest_foot():
     assert float(kh(pitched, q[:1])[0]) > stand  # the hind feet, now lowest, lie further down
 
 
+def test_level_is_the_height_with_gravity_straight_down():
+    kh = KinematicHeight(A1)
+    poses = np.stack([A1.stand_pose, A1.tall_pose])
+    down = torch.tensor([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
+    np.testing.assert_array_equal(kh.level(poses), kh(down, torch.as_tensor(poses, dtype=torch.float32)).numpy())
+
+
 def test_stall_rule_reads_the_kinematic_height_without_the_teacher_observation():
     from selfright.env.observations import joint_pos_columns
     from selfright.policies.stall import StallSwitch

@@ -53,3 +53,9 @@ class KinematicHeight:
         down = torch.nn.functional.normalize(gravity.detach().cpu().float(), dim=1)
         depth = (feet @ down.unsqueeze(2)).squeeze(2) + torch.as_tensor(self.foot_radius, dtype=torch.float32)
         return depth.max(dim=1).values
+
+    def level(self, q: np.ndarray) -> np.ndarray:
+        """(k,) trunk heights (m) over the feet of the poses ``q`` (k, J) with the trunk level:
+        ``height`` with gravity straight down the trunk's z axis."""
+        q = torch.as_tensor(np.atleast_2d(np.asarray(q)))
+        return self(torch.tensor([[0.0, 0.0, -1.0]]).expand(len(q), 3), q).numpy()
