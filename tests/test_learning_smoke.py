@@ -301,6 +301,10 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert "upright on three or four feet (a leaky count) under the goal bar" in reward_summary({"role": "teacher", "train_config": ended})
     ended["episode"]["low_stance_over_feet_m"] = 0.34
     assert "(a leaky count) under 0.34 m above the ground under the feet (not" in reward_summary({"role": "teacher", "train_config": ended})
+    steep = {"reward": table, "episode": {"incline_slopes_deg": [20.0, 22.5, 25.0]}}
+    assert reward_summary({"role": "student-ppo", "train_config": steep}).endswith(
+        "; incline training tiles of 20°, 22.5°, 25°, one drawn per episode (the benchmark's: 20°)"
+    )
 
 
 def test_card_record_reads_back_what_a_card_states():

@@ -59,6 +59,8 @@ def test_training_contexts():
     assert all(c.slope_pct == 0 for c in rough)
     (incline,) = training_cells("incline", CFG)
     assert incline.slope_deg == pytest.approx(20.0)
+    steep = training_cells("incline", CFG, EpisodeConfig(incline_slopes_deg=(20.0, 25.0)))
+    assert [c.slope_deg for c in steep] == pytest.approx([20.0, 25.0])
     with pytest.raises(ValueError):
         training_cells("moon", CFG)
 

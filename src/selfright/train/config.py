@@ -122,6 +122,12 @@ class EpisodeConfig:
     goal set and down after one that ended with none (or off the tile)."""
     incline_curriculum_deg: tuple[float, ...] = (5.0, 10.0, 15.0, 20.0)
     """Slopes of the ``incline`` context's curriculum levels (deg); the last is the context's 20°."""
+    incline_slopes_deg: tuple[float, ...] | None = None
+    """Without ``curriculum``: the slopes (deg) of the ``incline`` context's training tiles, one
+    drawn uniformly per episode; ``None`` = the context's 20° alone. Training on steeper slopes
+    than the benchmark's (e.g. ``20 22.5 25``) asks the policy for a margin: a stand-up that
+    does not roll over downhill at 25° has room to spare at 20°. Validation and ``selfright
+    evaluate`` always use the benchmark's 20° grid; model cards record the option."""
     curriculum_window_s: float = 1.0
     """Final stretch of an episode that decides promotion (s)."""
     rough_variants: int = 8

@@ -6,7 +6,8 @@ rough:   level ground, ``EpisodeConfig.rough_variants`` tiles whose roughness ex
          half a body length). Each episode draws one tile.
 incline: a 20° smooth slope rising along +x. No yaw variants are needed: the fall
          orientation is uniform on SO(3), so every heading on the slope occurs. With
-         ``EpisodeConfig.curriculum`` one tile per slope of ``incline_curriculum_deg``.
+         ``EpisodeConfig.curriculum`` one tile per slope of ``incline_curriculum_deg``; with
+         ``incline_slopes_deg`` one per listed slope, each episode drawing one.
 
 Tiles are listed from easy to hard (the curriculum's levels).
 """
@@ -34,11 +35,13 @@ def training_cells(context: str, cfg: BenchmarkConfig, episode: EpisodeConfig | 
         return grid_cells("flat", cfg.terrain)
     if context == "incline":
         top = grid_cells("incline", cfg.terrain)[0]
-        if not episode.curriculum:
+        if episode.curriculum:
+            slopes = episode.incline_curriculum_deg
+        elif episode.incline_slopes_deg:
+            slopes = episode.incline_slopes_deg
+        else:
             return [top]
-        return [
-            replace(top, slope_pct=100.0 * math.tan(math.radians(deg))) for deg in episode.incline_curriculum_deg
-        ]
+        return [replace(top, slope_pct=100.0 * math.tan(math.radians(deg))) for deg in slopes]
     if context == "rough":
         base = grid_cells("flat", cfg.terrain)[0]
         top = cfg.terrain.num_roughness_levels - 1

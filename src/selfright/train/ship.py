@@ -242,6 +242,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""
+    if episode.get("incline_slopes_deg") and not episode.get("curriculum"):
+        slopes = ", ".join(f"{d:g}°" for d in episode["incline_slopes_deg"])
+        rule += f"; incline training tiles of {slopes}, one drawn per episode (the benchmark's: 20°)"
     if episode.get("terminate_on_refall"):
         rule += f"; training episodes ended as terminal at a tip past {refall_tilt}° after upright (not in the seed)"
     if low:
