@@ -39,7 +39,7 @@ from selfright.policies.pose_blend import stance_action
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import (
-    Blinded, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, Smoothed, trained_std,
+    Blinded, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, SideMirrored, Smoothed, trained_std,
 )
 from selfright.robots import get_robot
 
@@ -101,6 +101,10 @@ class Args:
     """With ``pose_upright_s``: the stance's hip, thigh and knee angles (rad), the same on
     every leg. The default has the knee at its limit and the foot under the hip: 0.38 m from
     hip axis to ground."""
+    side_mirror: int = 0
+    """+1 or -1: act in the mirror image of the world unless the projected gravity's body y
+    component has this sign when control starts, so that the ground falls away to the same
+    side of the trunk in every episode (``selfright.policies.variants.SideMirrored``); 0 = off."""
     smooth_last: bool = False
     """With ``smooth``: low-pass only the last policy of a composite (the tilted one: the escape),
     which then sees every step (``feed_both``) so its filter runs on between hand-overs; off =
@@ -121,6 +125,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)),
                              range(len(robot.joint_names)), stance_action(robot, cfg.action, a.pose_upright),
                              round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}")
+    if a.side_mirror:
+        policy = SideMirrored(policy, a.side_mirror, cfg.robot.name)
     return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
 
 
@@ -192,6 +198,7 @@ def main(a: Args) -> None:
              if a.zero_hips_upright_s > 0 else "")
     name += (f" (stance {a.pose_upright} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
+    name += f" (mirrored unless gravity's body y is {a.side_mirror:+d} at the start)" if a.side_mirror else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -420,3 +420,38 @@ def test_pose_upright_ramps_only_its_columns_of_upright_slots():
     assert got == [[1.0, 1.0], [1.0, 1.0], [2.0, 0.0], [3.0, -1.0]]
     with pytest.raises(ValueError, match="one target per column"):
         PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0])
+
+
+def test_side_mirrored_decides_once_per_episode_from_gravity_and_mirrors_both_ways():
+    from selfright.policies.variants import SideMirrored
+    from selfright.train.symmetry import group_mirrors, mirror
+
+    seen = []
+
+    class _Lin(Policy):  # a fixed linear map of the observation: not mirror-symmetric
+        w = torch.randn(42, 12, generator=torch.Generator().manual_seed(0))
+
+        def act(self, obs, ids, contexts):
+            seen.append(obs["student"].clone())
+            return obs["student"] @ self.w
+
+    maps = group_mirrors("a1")
+    p = SideMirrored(_Lin(), +1, "a1")
+    ids = np.array([0, 1])
+    p.reset(ids)
+    x = torch.randn(2, 42, generator=torch.Generator().manual_seed(1))
+    x[:, 1] = torch.tensor([0.3, -0.3])  # gravity's body y: + in slot 0 (kept), − in slot 1 (mirrored)
+    a = p.act({"student": x}, ids, [None] * 2)
+    assert torch.allclose(a[0], x[0] @ _Lin.w)
+    mx = mirror(x[1:], *maps["student"])
+    assert torch.allclose(seen[-1][1:], mx)
+    assert torch.allclose(a[1:], mirror(mx @ _Lin.w, *maps["actions"]))
+    y = x.clone()
+    y[:, 1] = -y[:, 1]  # the sign changes later in the episode: the choice stands
+    p.act({"student": y}, ids, [None] * 2)
+    assert torch.allclose(seen[-1][0], y[0]) and torch.allclose(seen[-1][1:], mirror(y[1:], *maps["student"]))
+    p.reset(ids[1:])  # a new episode in slot 1 decides afresh (now + : kept)
+    p.act({"student": y}, ids, [None] * 2)
+    assert torch.allclose(seen[-1][1], y[1]) and torch.allclose(seen[-1][0], y[0])
+    with pytest.raises(ValueError, match="side"):
+        SideMirrored(_Lin(), 0, "a1")

@@ -197,6 +197,49 @@ class PoseUpright(Policy):
         return pose_blend(a, self._upright_steps[t], self.delay, self.ramp, self.target, self.cols)
 
 
+class SideMirrored(Policy):
+    """``inner`` acting in the left-right mirror image of the world in the episodes where the
+    ground falls away to one side of the trunk when it starts: at a slot's first step, the
+    IMU's projected gravity has a y component (body frame) of sign ``-side`` (or the trunk
+    lies level), and for the whole episode the slot then feeds ``inner`` the mirrored
+    observations and returns the mirror of its actions. On an incline a one-handed policy
+    (one that rolls to a preferred side, *Left-right symmetry* in docs/training.md) so rolls
+    to the same side of the slope in every episode. Reads only the student group, so it is as
+    sensor-only as ``inner``."""
+
+    def __init__(self, inner: Policy, side: int, robot_name: str):
+        if side not in (-1, 1):
+            raise ValueError(f"side is +1 or -1, got {side}")
+        from selfright.train.symmetry import group_mirrors
+
+        self.inner, self.side, self.maps = inner, side, group_mirrors(robot_name)
+        self.groups = tuple(sorted(set(inner.groups) | {"student"}))
+        self.action_mapping, self.digest = inner.action_mapping, inner.digest
+        self.name = f"{inner.name} (mirrored unless gravity's body y is {'+' if side > 0 else '-'} at the start)"
+        self._flag = torch.zeros(0, dtype=torch.bool)
+        self._decided = torch.zeros(0, dtype=torch.bool)
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.inner.reset(ids, seeds)
+        t = slot_index(ids)
+        self._flag, self._decided = grown(self._flag, t, False), grown(self._decided, t, False)
+        self._decided[t] = False
+
+    def act(self, obs, ids, contexts):
+        from selfright.train.symmetry import mirror
+
+        t = slot_index(ids)
+        self._flag, self._decided = grown(self._flag, t, False), grown(self._decided, t, False)
+        new = ~self._decided[t]
+        gy = obs["student"][:, 1].cpu()
+        self._flag[t[new]] = (gy[new] * self.side) <= 0
+        self._decided[t] = True
+        flip = self._flag[t].to(obs["student"].device)[:, None]
+        fed = {k: torch.where(flip, mirror(v, *self.maps[k]), v) for k, v in obs.items()}
+        a = self.inner.act(fed, ids, contexts)
+        return torch.where(flip.to(a.device), mirror(a, *self.maps["actions"]), a)
+
+
 def trained_std(checkpoint: str) -> torch.Tensor:
     """The state-independent action std of an rsl_rl PPO checkpoint (action units)."""
     if not Path(checkpoint).is_file():
