@@ -18,7 +18,7 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --seed 4 --out results/rough_hips0_s4
     python scripts/policy_variants.py --policies rough --pose-upright-s 1 --pose-upright-delay-s 2 \\
         --grid rough --seed 4 --out results/rough_pose_s4
-    python scripts/policy_variants.py --policies incline --side-mirror 1 --grid incline \
+    python scripts/policy_variants.py --policies incline --side-mirror 1 --grid incline \\
         --seed 20 --out results/incline_side_s20
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
