@@ -20,6 +20,7 @@ from selfright.policies.history import ObsHistory
 from selfright.policies.pose_blend import pose_blend, upright_count
 from selfright.policies.slots import grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
+from selfright.train.symmetry import group_mirrors, mirror
 
 
 class MeanOf(Policy):
@@ -210,8 +211,6 @@ class SideMirrored(Policy):
     def __init__(self, inner: Policy, side: int, robot_name: str):
         if side not in (-1, 1):
             raise ValueError(f"side is +1 or -1, got {side}")
-        from selfright.train.symmetry import group_mirrors
-
         self.inner, self.side, self.maps = inner, side, group_mirrors(robot_name)
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
@@ -226,8 +225,6 @@ class SideMirrored(Policy):
         self._decided[t] = False
 
     def act(self, obs, ids, contexts):
-        from selfright.train.symmetry import mirror
-
         t = slot_index(ids)
         self._flag, self._decided = grown(self._flag, t, False), grown(self._decided, t, False)
         new = ~self._decided[t]
