@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from types import SimpleNamespace
 
 import mujoco
@@ -16,6 +17,7 @@ from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
 from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_bench, training_cells
+from selfright.train.stand_starts import ground_normal
 from selfright.train.vecenv import RecoveryVecEnv
 
 CFG = BenchmarkConfig()
@@ -488,4 +490,37 @@ def test_finished_episodes_restart_with_every_option_off(flat_worlds):
     assert dones.tolist() == [True, True] and extras["time_outs"].tolist() == [True, True]
     assert env.episode_length_buf.tolist() == [0, 0]
     assert "Metrics/refall_per_s" not in extras["log"] and extras["log"]["Episode/length_s"] == pytest.approx(0.04)
+    env.close()
+
+
+def test_ground_normal_of_the_incline_tile():
+    """The finite-difference normal of the smooth 20° tile (rising along +x) is the plane's."""
+    (world,) = make_training_worlds("incline", CFG, 0)
+    n = ground_normal(world.tile, np.array([0.3, -0.4]))
+    s = math.radians(20.0)
+    np.testing.assert_allclose(n, [-math.sin(s), 0.0, math.cos(s)], atol=1e-6)
+
+
+@pytest.mark.parametrize("share", [1.0, 0.5])
+def test_stand_starts_put_the_robot_upright_over_the_slope_with_momentum(share):
+    """stand_start 1.0: every episode starts standing, square to the 20° slope within the
+    drawn tilt, feet just off the ground, moving, the clock at the settle's end, and marked as
+    not a fall; 0.5: some do and the rest are fall-protocol draws (on their backs or sides)."""
+    ep = EpisodeConfig(stand_start=share, stand_start_tilt_deg=10.0)
+    worlds = make_training_worlds("incline", CFG, 0, ep)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), worlds, num_envs=12, seed=4)
+    e, ids = env.env, np.arange(12)
+    rs = e.robot_state(ids)
+    tilt = np.degrees(np.arccos(np.clip(np.cos(rs.roll.numpy()) * np.cos(rs.pitch.numpy()), -1, 1)))
+    standing = env.replayed.numpy()
+    assert standing.all() if share == 1.0 else 0 < standing.sum() < 12
+    assert (tilt[standing] <= 20.0 + 10.0 + 1.0).all()  # square to the slope, within the drawn tilt
+    assert (tilt[~standing] > 30.0).all()  # the seed's falls land inverted or on a side
+    feet = e.feet_xyz(ids)
+    ground = e.ground_height(np.repeat(ids, 4), feet[:, :, :2].reshape(-1, 2)).reshape(12, 4)
+    lowest = (feet[:, :, 2] - ground)[standing].min(axis=1) - 0.02  # under the foot sphere
+    assert ((lowest > 0.005) & (lowest < 0.015)).all()  # the 1 cm clearance, one physics step on
+    speed = np.linalg.norm(e.state[standing][:, e.sl.lin_vel], axis=1)
+    assert (speed > 0.0).all()
+    np.testing.assert_allclose(e.state[:, e.sl.time], CFG.fall.settle_s, atol=1e-9)
     env.close()

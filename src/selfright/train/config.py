@@ -99,6 +99,22 @@ class EpisodeConfig:
     restart_tilted_only: bool = False
     """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
     limit (lying on the back or side), not upright ones such as a crouch under the bar."""
+    stand_start: float = 0.0
+    """Share of fresh training episodes that start standing instead of with the seed's fall
+    (0 = off): trunk square to the ground under it at a random heading and spot of the spawn
+    square, within ``stand_start_tilt_deg``, joints within ``stand_start_joint_noise_rad`` of
+    the ``--action-reference`` pose (the A1's stand pose for ``current``), a random trunk
+    velocity, the clock where a settle ends (``selfright.train.stand_starts``). The incline
+    policies get up and then re-fall; these starts put "upright with momentum" into the batch.
+    Not the seed's protocol; validation and ``selfright evaluate`` never use it."""
+    stand_start_tilt_deg: float = 15.0
+    """With ``stand_start``: largest tilt away from square to the ground (deg)."""
+    stand_start_joint_noise_rad: float = 0.15
+    """With ``stand_start``: largest offset of each joint from the pose (rad)."""
+    stand_start_lin_vel_mps: float = 0.5
+    """With ``stand_start``: largest trunk linear velocity per axis (m/s)."""
+    stand_start_ang_vel_rps: float = 1.0
+    """With ``stand_start``: largest trunk angular velocity per axis (rad/s)."""
     upright_policy: str | None = None
     """A frozen teacher checkpoint that acts in every training step where the trunk is within
     ``upright_tilt_deg`` of upright, replacing the trained policy's action there: an escape

@@ -44,6 +44,7 @@ from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
 from selfright.train.config import TrainConfig, student_group
+from selfright.train.stand_starts import StandDraw, stand_starts
 from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
 
 if TYPE_CHECKING:
@@ -119,6 +120,14 @@ class RecoveryVecEnv(VecEnv):
         self.restart_share = ep.restart_stuck
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
         self.tilted_only = ep.restart_tilted_only
+        self.stand_share = ep.stand_start
+        self.stand_pose = robot.reference_pose(cfg.action.reference)
+        if self.stand_pose is None:
+            self.stand_pose = robot.stand_pose
+        self.stand_draw = StandDraw(
+            tilt_deg=ep.stand_start_tilt_deg, joint_noise_rad=ep.stand_start_joint_noise_rad,
+            lin_vel_mps=ep.stand_start_lin_vel_mps, ang_vel_rps=ep.stand_start_ang_vel_rps,
+        )
         self.stuck_ends = StuckEnds(num_envs)
         """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
         self.slot_factors = np.ones((num_envs, 4))
@@ -207,12 +216,23 @@ class RecoveryVecEnv(VecEnv):
             f = EpisodeFactors.from_array(factors) if factors is not None else None
         models = self._models(world_idx, f)
         fresh = np.array([j for j in range(k) if j not in ends], dtype=np.int64)
+        stand = np.zeros(0, dtype=np.int64)
+        if self.stand_share > 0 and len(fresh):
+            pick = self.rng.random(len(fresh)) < self.stand_share
+            stand, fresh = fresh[pick], fresh[~pick]
+            replayed[stand] = True
+            for j in stand:
+                origins[j] = None
         if len(fresh):
             settled = env.settle(world_idx[fresh], [rngs[j] for j in fresh], [models[j] for j in fresh])
         else:
             settled = SettledStarts(np.empty((0, env.sl.size)), np.empty((0, env.sens.shape[1])), np.zeros(0, bool))
-        if ends:
+        if ends or len(stand):
             settled = self._with_end_states(settled, fresh, ends, k)
+        if len(stand):
+            standing = stand_starts(env, world_idx[stand], [rngs[j] for j in stand], [models[j] for j in stand],
+                                    self.stand_pose, self.stand_draw)
+            settled.state[stand], settled.sens[stand], settled.diverged[stand] = standing.state, standing.sens, standing.diverged
         return EpisodeDraw(world_idx, f, models, replayed, origins, settled)
 
     def _take_stuck_ends(self, k: int) -> dict[int, EndState]:
