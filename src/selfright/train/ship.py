@@ -245,6 +245,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if episode.get("incline_slopes_deg") and not episode.get("curriculum"):
         slopes = ", ".join(f"{d:g}°" for d in episode["incline_slopes_deg"])
         rule += f"; incline training tiles of {slopes}, one drawn per episode (the benchmark's: 20°)"
+    if episode.get("stand_start"):
+        rule += (f"; {episode['stand_start']:.0%} of training episodes started standing with a random trunk velocity"
+                 " instead of with the seed's fall (not in the seed)")
     if episode.get("terminate_on_refall"):
         rule += f"; training episodes ended as terminal at a tip past {refall_tilt}° after upright (not in the seed)"
     if low:
