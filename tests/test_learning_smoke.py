@@ -305,6 +305,10 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert reward_summary({"role": "student-ppo", "train_config": steep}).endswith(
         "; incline training tiles of 20°, 22.5°, 25°, one drawn per episode (the benchmark's: 20°)"
     )
+    arrivals = {"reward": table, "episode": {"restart_arrivals": 0.3}}
+    assert reward_summary({"role": "student-ppo", "train_config": arrivals}).endswith(
+        "; 30% of training episodes restarted at recorded arrivals upright instead of with the seed's fall (not in the seed)"
+    )
     standing = {"reward": table, "episode": {"stand_start": 0.3}}
     assert reward_summary({"role": "student-ppo", "train_config": standing}).endswith(
         "; 30% of training episodes started standing with a random trunk velocity instead of with the seed's fall"

@@ -524,3 +524,31 @@ def test_stand_starts_put_the_robot_upright_over_the_slope_with_momentum(share):
     assert (speed > 0.0).all()
     np.testing.assert_allclose(e.state[:, e.sl.time], CFG.fall.settle_s, atol=1e-9)
     env.close()
+
+
+def test_arrival_restarts_resume_the_state_the_last_action_and_the_history(flat_worlds):
+    """restart_arrivals 1.0: the first step of each episode within the arrival tilt (here any
+    tilt) is recorded once, and the next episodes start there, with the action applied at that
+    step and the student's history as it was before that step's frame."""
+    ep = EpisodeConfig(episode_s=0.1, restart_arrivals=1.0, prepare_starts=False)
+    train = dataclasses.replace(TrainConfig(), episode=ep, randomization=RandomizationConfig(enabled=False),
+                                distillation=dataclasses.replace(TrainConfig().distillation, student_history=4))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=3, seed=6)
+    env.arrival_cos = -2.0  # the falls start tilted; count any tilt as arrived
+    kept = []
+    put = env.arrivals.put
+    env.arrivals.put = lambda e: kept.append(e) or put(e)
+    group = next(k for k in env.get_observations().keys() if k.startswith("student_"))
+    with torch.inference_mode():
+        for step in range(5):
+            obs, _, dones, _ = env.step(torch.full((3, 12), 0.3 if step == 0 else -0.2))
+    assert len(kept) == 3 and dones.all() and len(env.arrivals) == 0  # one arrival per episode, all taken
+    for i in range(3):
+        e = next(e for e in kept if np.array_equal(e.state[1:], env.env.state[i, 1:]))
+        assert env.env.state[i, 0] == pytest.approx(CFG.fall.settle_s)
+        torch.testing.assert_close(env.env.prev_action[i], torch.full((12,), 0.3))
+        frames = obs[group][i].reshape(4, -1).cpu()
+        torch.testing.assert_close(frames[:-1], e.memory.history[1:])  # the recorded history, rolled on
+        torch.testing.assert_close(frames[-1], obs["student"][i].cpu())  # then the restart's own frame
+    assert env.arrived.all()  # restarts begin arrived: no second recording from them
+    env.close()

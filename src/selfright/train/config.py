@@ -99,6 +99,16 @@ class EpisodeConfig:
     restart_tilted_only: bool = False
     """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
     limit (lying on the back or side), not upright ones such as a crouch under the bar."""
+    restart_arrivals: float = 0.0
+    """Share of new training episodes that start at a recorded *arrival* (0 = off): the state of
+    a recent training episode at the first step its trunk came within ``arrival_tilt_deg`` of
+    upright, with its tile, randomisation factors, last action and the student's history at
+    that step, the clock reset. The incline get-ups arrive upright in a fast flip (median
+    11.7 rad/s, no foot down) and most failures fall over again in the next second; these
+    starts put more of that second into the batch. Each arrival is used once. Not the seed's
+    protocol; validation and ``selfright evaluate`` never use it."""
+    arrival_tilt_deg: float = 45.0
+    """With ``restart_arrivals``: the tilt from upright (deg) that counts as arriving."""
     stand_start: float = 0.0
     """Share of fresh training episodes that start standing instead of with the seed's fall
     (0 = off): trunk square to the ground under it at a random heading and spot of the spawn

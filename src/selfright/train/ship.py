@@ -248,6 +248,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if episode.get("stand_start"):
         rule += (f"; {episode['stand_start']:.0%} of training episodes started standing with a random trunk velocity"
                  " instead of with the seed's fall (not in the seed)")
+    if episode.get("restart_arrivals"):
+        rule += (f"; {episode['restart_arrivals']:.0%} of training episodes restarted at recorded arrivals upright"
+                 " instead of with the seed's fall (not in the seed)")
     if episode.get("terminate_on_refall"):
         rule += f"; training episodes ended as terminal at a tip past {refall_tilt}° after upright (not in the seed)"
     if low:

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+import torch
 
 from selfright.env.randomization import EpisodeFactors
 from selfright.env.recovery_env import SettledStarts
@@ -32,6 +33,8 @@ class EpisodeDraw:
     """(world, generator before the fall draw) of each episode, kept for replay (else None)."""
     settled: SettledStarts
     """States after the fall protocol's 2 s settle."""
+    memory: list[StartMemory | None] | None = None
+    """Per row, the policy-side memory a restart carries (arrival restarts), or None for all."""
 
 
 class PreparedStarts:
@@ -48,6 +51,7 @@ class PreparedStarts:
         self.state = np.zeros((num_envs, state_size))
         self.sens = np.zeros((num_envs, sensor_size))
         self.diverged = np.zeros(num_envs, dtype=bool)
+        self.memory: list[StartMemory | None] = [None] * num_envs
 
     def put(self, slots: np.ndarray, draw: EpisodeDraw) -> None:
         """Keep ``draw``'s rows as the next starts of ``slots``."""
@@ -61,6 +65,7 @@ class PreparedStarts:
         self.diverged[slots] = draw.settled.diverged
         for j, i in enumerate(slots):
             self.origins[i] = draw.origins[j]
+            self.memory[i] = draw.memory[j] if draw.memory is not None else None
         self.ready[slots] = True
 
     def take(self, slots: np.ndarray) -> EpisodeDraw:
@@ -73,6 +78,7 @@ class PreparedStarts:
             models=None,
             replayed=self.replayed[slots].copy(),
             origins=[self.origins[i] for i in slots],
+            memory=[self.memory[i] for i in slots],
             settled=SettledStarts(
                 state=self.state[slots].copy(), sens=self.sens[slots].copy(), diverged=self.diverged[slots].copy()
             ),
@@ -80,6 +86,7 @@ class PreparedStarts:
         self.ready[slots] = False
         for i in slots:
             self.origins[i] = None
+            self.memory[i] = None
         return draw
 
 
@@ -94,6 +101,19 @@ class EndState:
     """(nstate,) full-physics state."""
     sens: np.ndarray
     """(nsensordata,) sensor readings of that state."""
+    memory: StartMemory | None = None
+    """What the policy's inputs carried at that state beyond it (an arrival restart's), or None."""
+
+
+@dataclass(frozen=True)
+class StartMemory:
+    """The policy-side memory of a state a restart begins at: its last action and, for a student
+    with a history, the frames before it (``EpisodeConfig.restart_arrivals``)."""
+
+    prev_action: torch.Tensor
+    """(J,) the action applied at the step that reached the state."""
+    history: torch.Tensor | None
+    """(H, D) the student's history before that state's frame, or None (no history)."""
 
 
 class StuckEnds:

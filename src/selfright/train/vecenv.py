@@ -45,7 +45,7 @@ from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
 from selfright.train.config import TrainConfig, student_group
 from selfright.train.stand_starts import StandDraw, stand_starts
-from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
+from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StartMemory, StuckEnds
 
 if TYPE_CHECKING:
     from selfright.env.robot_state import RobotState
@@ -120,6 +120,12 @@ class RecoveryVecEnv(VecEnv):
         self.restart_share = ep.restart_stuck
         self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
         self.tilted_only = ep.restart_tilted_only
+        self.arrival_share = ep.restart_arrivals
+        self.arrival_cos = math.cos(math.radians(ep.arrival_tilt_deg))
+        self.arrivals = StuckEnds(num_envs)
+        """Recorded arrivals (``restart_arrivals``), each handed out once."""
+        self.arrived = torch.zeros(num_envs, dtype=torch.bool)
+        """Each slot's episode has come within ``arrival_tilt_deg`` of upright."""
         self.stand_share = ep.stand_start
         self.stand_pose = robot.reference_pose(cfg.action.reference)
         if self.stand_pose is None:
@@ -229,21 +235,42 @@ class RecoveryVecEnv(VecEnv):
             settled = SettledStarts(np.empty((0, env.sl.size)), np.empty((0, env.sens.shape[1])), np.zeros(0, bool))
         if ends or len(stand):
             settled = self._with_end_states(settled, fresh, ends, k)
+        if ends:
+            memory: list[StartMemory | None] = [None] * k
+            for j, e in ends.items():
+                memory[j] = e.memory
         if len(stand):
             standing = stand_starts(env, world_idx[stand], [rngs[j] for j in stand], [models[j] for j in stand],
                                     self.stand_pose, self.stand_draw)
             settled.state[stand], settled.sens[stand], settled.diverged[stand] = standing.state, standing.sens, standing.diverged
-        return EpisodeDraw(world_idx, f, models, replayed, origins, settled)
+        return EpisodeDraw(world_idx, f, models, replayed, origins, settled, memory if ends else None)
 
     def _take_stuck_ends(self, k: int) -> dict[int, EndState]:
-        """Rows of a k-row draw that restart from stuck end states (``restart_stuck``), and theirs."""
+        """Rows of a k-row draw that restart from stuck end states (``restart_stuck``) or from
+        recorded arrivals (``restart_arrivals``), and theirs."""
         ends: dict[int, EndState] = {}
-        if self.restart_share > 0:
-            for j in np.flatnonzero(self.rng.random(k) < self.restart_share):
-                if not len(self.stuck_ends):
+        for share, pool in ((self.restart_share, self.stuck_ends), (self.arrival_share, self.arrivals)):
+            if share <= 0:
+                continue
+            for j in np.flatnonzero(self.rng.random(k) < share):
+                if not len(pool):
                     break
-                ends[int(j)] = self.stuck_ends.take(self.rng)
+                if int(j) not in ends:
+                    ends[int(j)] = pool.take(self.rng)
         return ends
+
+    def _keep_arrivals(self, state: RobotState) -> None:
+        """Record the state of every slot whose trunk has just come within ``arrival_tilt_deg``
+        of upright for the first time in its episode, with its last action and the student's
+        history before this step's frame (``restart_arrivals``)."""
+        new = (state.up_z > self.arrival_cos) & ~self.arrived
+        self.arrived |= new
+        env = self.env
+        for i in new.nonzero(as_tuple=False).flatten().tolist():
+            history = self.student_frames.buf[i].clone() if self.student_frames is not None else None
+            memory = StartMemory(prev_action=env.prev_action[i].clone(), history=history)
+            factors = self.slot_factors[i].copy() if self.randomizer is not None else None
+            self.arrivals.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy(), memory))
 
     def _with_end_states(
         self, settled: SettledStarts, fresh: np.ndarray, ends: dict[int, EndState], k: int
@@ -297,6 +324,16 @@ class RecoveryVecEnv(VecEnv):
         self.upright_since_fall[t] = False
         if self.student_frames is not None:
             self.student_frames.reset(ids)
+        if self.arrival_share > 0:  # a start already upright (an arrival, a standing start) records none
+            self.arrived[t] = env.robot_state(ids).up_z > self.arrival_cos
+        for j, m in enumerate(draw.memory or []):
+            if m is None:
+                continue
+            i = int(ids[j])
+            env.prev_action[i] = m.prev_action
+            if self.student_frames is not None and m.history is not None:
+                self.student_frames.buf[i] = m.history
+                self.student_frames.fresh[i] = False
         self.replayed[t] = torch.from_numpy(draw.replayed)
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
@@ -340,6 +377,8 @@ class RecoveryVecEnv(VecEnv):
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
+        if self.arrival_share > 0:
+            self._keep_arrivals(out.state)
         if self.track_tail:
             in_tail = self.episode_length_buf > self.max_episode_length - self.window
             self.tail_goal_steps += (out.in_goal & in_tail).long()
