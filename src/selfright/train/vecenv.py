@@ -425,7 +425,7 @@ class RecoveryVecEnv(VecEnv):
                 self._keep_failed_starts(done_ids, in_goal, diverged)
             if self.restart_share > 0:
                 self._keep_stuck_ends(done_ids, in_goal, diverged | left_tile)
-            if self.replay_share > 0 or self.restart_share > 0:
+            if self.replay_share > 0 or self.restart_share > 0 or self.arrival_share > 0 or self.stand_share > 0:
                 log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
             if self.action_override is not None:
