@@ -141,10 +141,15 @@ class RecoveryEnv:
         for k, (w, rng) in enumerate(zip(world_idx, rngs)):
             world = self.worlds[w]
             init[k, 1 : 1 + nq] = initial_qpos(rng, self.robot, self.checker, world.tile, fall, terrain, world.fixed_spawn_y)
-        hold = init[:, self.sl.qpos_joints]
-        states, sens = self.stepper.step(models, init, hold, self.settle_steps)
+        return self.hold_rollout(models, init, self.settle_steps)
+
+    def hold_rollout(self, models: list[mujoco.MjModel], init: np.ndarray, nstep: int) -> SettledStarts:
+        """Roll (k, S) ``init`` states out ``nstep`` physics steps, each holding its own joint
+        angles as PD targets, to where a fall's settle ends (``FallConfig.settle_s``); a row that
+        diverges or ends at another time keeps its finite start and is flagged diverged."""
+        states, sens = self.stepper.step(models, init, init[:, self.sl.qpos_joints], nstep)
         final = states[:, -1]
-        bad = ~np.isfinite(final).all(axis=1) | (np.abs(final[:, 0] - fall.settle_s) > 1e-6)
+        bad = ~np.isfinite(final).all(axis=1) | (np.abs(final[:, 0] - self.cfg.fall.settle_s) > 1e-6)
         final[bad] = init[bad]  # keep a finite state; the episode is flagged diverged in begin
         return SettledStarts(state=final, sens=sens[:, -1], diverged=bad)
 

@@ -118,8 +118,4 @@ def stand_starts(
         init[k, sl.time] = cfg.fall.settle_s - cfg.sim.timestep_s
         init[k, 1 : 1 + nq] = qpos
         init[k, 1 + nq : 1 + nq + len(qvel)] = qvel
-    states, sens = env.stepper.step(models, init, init[:, sl.qpos_joints], 1)
-    final = states[:, -1]
-    bad = ~np.isfinite(final).all(axis=1)
-    final[bad] = init[bad]
-    return SettledStarts(state=final, sens=sens[:, -1], diverged=bad)
+    return env.hold_rollout(models, init, 1)

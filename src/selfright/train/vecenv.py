@@ -235,15 +235,12 @@ class RecoveryVecEnv(VecEnv):
             settled = SettledStarts(np.empty((0, env.sl.size)), np.empty((0, env.sens.shape[1])), np.zeros(0, bool))
         if ends or len(stand):
             settled = self._with_end_states(settled, fresh, ends, k)
-        if ends:
-            memory: list[StartMemory | None] = [None] * k
-            for j, e in ends.items():
-                memory[j] = e.memory
         if len(stand):
             standing = stand_starts(env, world_idx[stand], [rngs[j] for j in stand], [models[j] for j in stand],
                                     self.stand_pose, self.stand_draw)
             settled.state[stand], settled.sens[stand], settled.diverged[stand] = standing.state, standing.sens, standing.diverged
-        return EpisodeDraw(world_idx, f, models, replayed, origins, settled, memory if ends else None)
+        memory = [ends[j].memory if j in ends else None for j in range(k)] if ends else None
+        return EpisodeDraw(world_idx, f, models, replayed, origins, settled, memory)
 
     def _take_stuck_ends(self, k: int) -> dict[int, EndState]:
         """Rows of a k-row draw that restart from stuck end states (``restart_stuck``) or from
