@@ -99,6 +99,13 @@ class Args:
     (``selfright.policies.variants.PoseUpright``); 0 = off."""
     pose_upright_delay_s: float = 0.0
     """With ``pose_upright_s``: how long the trunk must have been upright before the blend starts (s)."""
+    pose_upright_weight: float = 1.0
+    """With ``pose_upright_s`` or ``zero_hips_upright_s``: how far the blend goes, in (0, 1]: 1 =
+    all the way to the stance, 0.3 = the policy's action moved 30 % of the way there (its own
+    corrections kept)."""
+    pose_upright_joints: tuple[str, ...] = ("hip", "thigh", "calf")
+    """With ``pose_upright_s``: which joints of each leg blend (``hip``, ``thigh``, ``calf``); the
+    others keep the policy's action."""
     pose_upright: tuple[float, float, float] = (0.0, 0.46, -0.92)
     """With ``pose_upright_s``: the stance's hip, thigh and knee angles (rad), the same on
     every leg. The default has the knee at its limit and the foot under the hip: 0.38 m from
@@ -122,11 +129,16 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     robot, dt = get_robot(cfg.robot.name), cfg.sim.control_dt_s
     if a.zero_hips_upright_s > 0:
         hips = [i for i, n in enumerate(robot.joint_names) if "hip" in n]
-        policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.zero_hips_upright_s / dt)), hips)
+        policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.zero_hips_upright_s / dt)), hips,
+                             weight=a.pose_upright_weight)
     if a.pose_upright_s > 0:
+        cols = [i for i, n in enumerate(robot.joint_names) if n.split("_")[1] in a.pose_upright_joints]
+        if not cols:
+            raise ValueError(f"--pose-upright-joints {a.pose_upright_joints} names none of hip, thigh, calf")
         policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)),
-                             range(len(robot.joint_names)), stance_action(robot, cfg.action, a.pose_upright),
-                             round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}")
+                             cols, stance_action(robot, cfg.action, a.pose_upright)[cols],
+                             round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}",
+                             weight=a.pose_upright_weight)
     if a.side_mirror:
         policy = SideMirrored(policy, a.side_mirror, cfg.robot.name)
     return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
@@ -198,6 +210,7 @@ def main(a: Args) -> None:
     name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
     name += (f" (hips to 0 over {a.zero_hips_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg)"
              if a.zero_hips_upright_s > 0 else "")
+    name += f" ({a.pose_upright_weight:g} of the way)" if a.pose_upright_weight != 1.0 else ""
     name += (f" (stance {a.pose_upright} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
     name += f" (mirrored unless gravity's body y is {a.side_mirror:+d} at the start)" if a.side_mirror else ""

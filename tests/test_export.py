@@ -420,6 +420,13 @@ def test_pose_upright_ramps_only_its_columns_of_upright_slots():
     assert got == [[1.0, 1.0], [1.0, 1.0], [2.0, 0.0], [3.0, -1.0]]
     with pytest.raises(ValueError, match="one target per column"):
         PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0])
+    w = PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0, -1.0], weight=0.25)  # a share of the way there
+    w.reset(ids)
+    got = [w.act(obs(-1.0, 0.0), ids, [None] * 2)[0, [1, 2]].tolist() for _ in range(2)]
+    assert got == [[1.25, 0.75], [1.5, 0.5]]  # 1 + 0.25 · (3 − 1) · ramp, 1 + 0.25 · (−1 − 1) · ramp
+    for bad in (0.0, 1.5):
+        with pytest.raises(ValueError, match="weight"):
+            PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0, -1.0], weight=bad)
 
 
 def test_side_mirrored_decides_once_per_episode_from_gravity_and_mirrors_both_ways():

@@ -584,6 +584,13 @@ def test_student_distils_a_fixed_stance_from_another_student(tmp_path: Path):
     assert load_policy_file(list_checkpoints(out)[-1][1]).module.meta.role == "student"
     card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
     assert f"distilled from `{list_checkpoints(base)[-1][1]}`" in card and "not the seed's recipe" in card
+    partial = dataclasses.replace(stance, stance_weight=0.25)  # labels a quarter of the way to the stance
+    p = TrainingRun(spec(tmp_path / "partial", role="student", teacher=base,
+                         train=dataclasses.replace(TINY, distillation=partial)))
+    p.setup()
+    teacher = p.runner.alg.teacher
+    teacher(obs)
+    torch.testing.assert_close(teacher(obs), base_actions + 0.25 * (target - base_actions), atol=1e-5, rtol=0)
     with pytest.raises(ValueError, match="stance-ramp-s"):
         TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=tmp_path / "teacher", init_from=base,
                          train=train)).setup()

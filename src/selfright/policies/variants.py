@@ -167,19 +167,24 @@ class PoseUpright(Policy):
     ``--pose-upright-s``)."""
 
     def __init__(self, inner: Policy, tilt_deg: float, ramp_steps: int, columns: Sequence[int],
-                 target: Sequence[float] | None = None, delay_steps: int = 0, label: str = "hips to 0"):
+                 target: Sequence[float] | None = None, delay_steps: int = 0, label: str = "hips to 0",
+                 weight: float = 1.0):
         if ramp_steps < 1:
             raise ValueError(f"the pose ramp needs at least one step, got {ramp_steps}")
         if delay_steps < 0:
             raise ValueError(f"the pose delay cannot be negative, got {delay_steps}")
+        if not 0.0 < weight <= 1.0:
+            raise ValueError(f"the pose blend weight is in (0, 1], got {weight}")
         self.inner, self.ramp, self.delay, self.cols = inner, int(ramp_steps), int(delay_steps), list(columns)
+        self.weight = float(weight)
         self.target = torch.zeros(len(self.cols)) if target is None else torch.as_tensor(target, dtype=torch.float32)
         if self.target.shape != (len(self.cols),):
             raise ValueError(f"one target per column: {len(self.cols)} columns, target of shape {tuple(self.target.shape)}")
         self._tilted = TiltSwitch(tilt_deg)  # upright = not tilted over tilt_deg, as for the composites
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
-        self.name = (f"{inner.name} ({label} upright within {tilt_deg:g} deg, after {delay_steps} steps, "
+        share = "" if weight == 1.0 else f"{weight:g} of the way to "
+        self.name = (f"{inner.name} ({share}{label} upright within {tilt_deg:g} deg, after {delay_steps} steps, "
                      f"over {ramp_steps} steps)")
         self._upright_steps = torch.zeros(0)
 
@@ -195,7 +200,7 @@ class PoseUpright(Policy):
         self._upright_steps = grown(self._upright_steps, t)
         up = ~self._tilted.step(obs["student"], t)
         self._upright_steps[t] = upright_count(self._upright_steps[t], up)
-        return pose_blend(a, self._upright_steps[t], self.delay, self.ramp, self.target, self.cols)
+        return pose_blend(a, self._upright_steps[t], self.delay, self.ramp, self.target, self.cols, self.weight)
 
 
 class SideMirrored(Policy):

@@ -328,6 +328,10 @@ class DistillationConfig:
     stance_pose: tuple[float, float, float] = (0.0, 0.46, -0.92)
     """With ``stance_ramp_s``: the stance's hip, thigh and knee angles (rad) on every leg: the
     knee at its limit and the foot under the hip."""
+    stance_weight: float = 1.0
+    """With ``stance_ramp_s``: how far the labels blend, in (0, 1]: 1 = all the way to
+    ``stance_pose``; 0.3 = the base student's action moved 30 % of the way there, its own
+    balance corrections kept (on the 20° incline the full stance tips over; docs/training.md)."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -368,7 +368,8 @@ class TrainingRun:
         base = self.stance_base.to(s.device).eval()
         target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
         teacher = StanceTeacher(base, student_group(d.student_history), s.num_envs, d.stance_tilt_deg,
-                                round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target)
+                                round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
+                                weight=d.stance_weight)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:

@@ -129,7 +129,9 @@ def _stance_words(meta: dict[str, Any]) -> str:
     if not ramp:
         return ""
     pose = ", ".join(f"{v:g}" for v in d.get("stance_pose", ()))
-    return (f"; its labels are that student's own actions, blended over {ramp:g} s to a fixed stance (hip, thigh, "
+    weight = d.get("stance_weight", 1.0)
+    share = "" if weight == 1.0 else f"{weight:g} of the way "
+    return (f"; its labels are that student's own actions, blended over {ramp:g} s {share}to a fixed stance (hip, thigh, "
             f"knee {pose} rad on every leg) once the trunk has been upright within {d.get('stance_tilt_deg', 15.0):g}° "
             f"for {d.get('stance_delay_s', 2.0):g} s, and it started as a copy of that student (**not the seed's recipe**)")
 

@@ -23,17 +23,19 @@ from selfright.policies.stall import TiltSwitch
 
 class StanceTeacher(nn.Module):
     """``base``'s actions on the ``group`` observation, blended over ``ramp_steps`` to ``target``
-    (J,) (action units) once the trunk has been upright for ``delay_steps`` control steps; handed
-    straight back when it tilts over. rsl_rl's ``Distillation`` calls ``reset(dones)`` every step."""
+    (J,) (action units; a share ``weight`` of the way) once the trunk has been upright for
+    ``delay_steps`` control steps; handed straight back when it tilts over. rsl_rl's ``Distillation`` calls ``reset(dones)`` every step."""
 
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
-                 ramp_steps: int, target: torch.Tensor):
+                 ramp_steps: int, target: torch.Tensor, weight: float = 1.0):
         super().__init__()
         if ramp_steps < 1 or delay_steps < 0:
             raise ValueError(f"the stance needs a ramp of at least one step and a delay ≥ 0, got {ramp_steps}, {delay_steps}")
         self.base, self.group = base, group
         self.tilted = TiltSwitch(tilt_deg)
-        self.delay, self.ramp = int(delay_steps), int(ramp_steps)
+        if not 0.0 < weight <= 1.0:
+            raise ValueError(f"the stance blend weight is in (0, 1], got {weight}")
+        self.delay, self.ramp, self.weight = int(delay_steps), int(ramp_steps), float(weight)
         self.register_buffer("target", torch.as_tensor(target, dtype=torch.float32))
         self.count = torch.zeros(num_envs)
         """Control steps each env's trunk has been upright (CPU)."""
@@ -43,7 +45,8 @@ class StanceTeacher(nn.Module):
         x = obs["teacher"]  # the current frame's student columns come first (projected gravity at 0:3)
         up = ~self.tilted.step(x, torch.arange(x.shape[0]))
         self.count = upright_count(self.count, up)
-        return pose_blend(self.base(obs[self.group]), self.count, self.delay, self.ramp, self.target)
+        return pose_blend(self.base(obs[self.group]), self.count, self.delay, self.ramp, self.target,
+                          weight=self.weight)
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:
