@@ -13,11 +13,14 @@ On the incline most episodes that leave the tile carry the second: they tumble d
 getting up, not while lying on the back.
 
 and prints, for the "low" class, the trunk height above the ground beneath it and above the
-mean ground under the feet (they differ on rough tiles; the goal set reads the first), and,
+mean ground under the feet (they differ on rough tiles; the goal set reads the first) and how
+long the robot had stood upright on four feet when the episode ended, the same height for the
+successes (the margin they clear the bar by), and,
 over every episode that ends upright on four feet (successes included), the median stance:
 trunk height over the feet and each leg's hip, thigh and knee angles.
 
     python scripts/failure_modes.py --policy rough --grid rough --episodes 64
+    python scripts/failure_modes.py --policy incline --grid incline --stance-weight 0.3   # blended to the stance
 
 ``--tile-size-m 24`` replays the same falls on a larger tile (not the benchmark's): do the
 episodes that leave the 8 m tile get up further down the slope?
@@ -45,7 +48,8 @@ def main(a: ReplayArgs) -> None:
     bar = goal_height_m(cfg.goal, env.robot.leg_length_m)
     for k, cell in enumerate(cells):
         classes: Counter[str] = Counter()
-        low_h: list[tuple[float, float]] = []
+        low_h: list[tuple[float, float, float]] = []
+        success_h: list[float] = []
         stances: list[np.ndarray] = []  # (height over feet, J joint angles) of every end on four feet, upright
         for eps, seeds in replay_batches(a, cell, env.num_envs):
             ids = np.arange(len(eps))
@@ -53,8 +57,12 @@ def main(a: ReplayArgs) -> None:
             failed = np.zeros(len(eps), bool)
             was_up = np.zeros(len(eps), bool)
             fell_over = np.zeros(len(eps), bool)
+            standing = np.zeros(len(eps))  # control steps upright on four feet, up to now
 
             def watch(active: np.ndarray, out: StepOutput) -> None:
+                st = env.robot_state(active)
+                stands = upright(st.roll, st.pitch, cfg.goal).numpy() & (st.feet_contact.sum(dim=-1).numpy() == 4)
+                standing[active] = np.where(stands, standing[active] + 1, 0)
                 ever_goal[active] |= out.in_goal.numpy()
                 up_z = out.state.up_z.numpy()
                 fell_over[active] |= was_up[active] & (up_z < 0.0)
@@ -75,6 +83,7 @@ def main(a: ReplayArgs) -> None:
                     stances.append(np.concatenate([[over_feet[i]], q[i]]))
                 if success[i]:
                     classes["success"] += 1
+                    success_h.append(float(height[i]))
                     continue
                 up, feet, h = bool(is_up[i]), int(feet_down[i]), float(height[i])
                 h_feet = float(over_feet[i])
@@ -86,7 +95,7 @@ def main(a: ReplayArgs) -> None:
                     classes["upright, feet off"] += 1
                 elif h < bar:
                     classes["upright, 4 feet, low"] += 1
-                    low_h.append((h, h_feet))
+                    low_h.append((h, h_feet, standing[i] * cfg.sim.control_dt_s))
                 else:
                     classes["in goal, no 1 s hold"] += 1
                 if ever_goal[i] and not (up and feet == 4 and h >= bar):
@@ -99,7 +108,12 @@ def main(a: ReplayArgs) -> None:
         if low_h:
             h = np.array(low_h)
             print(f"  low: height above ground beneath trunk median {np.median(h[:, 0]):.3f} m; "
-                  f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m)")
+                  f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m); "
+                  f"had stood upright on four feet for a median {np.median(h[:, 2]):.1f} s")
+        if success_h:
+            p10, p50, p90 = np.percentile(success_h, [10, 50, 90])
+            print(f"  successes end {p50:.3f} m above the ground beneath the trunk (10th–90th percentile "
+                  f"{p10:.3f}–{p90:.3f} m)")
         if stances:
             m = np.median(np.array(stances), axis=0)
             legs = "  ".join(f"{n.split('_')[0]} " + " ".join(f"{v:+.2f}" for v in leg)

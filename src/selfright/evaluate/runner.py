@@ -166,25 +166,46 @@ class ReplayArgs:
     composites of ``scripts/policy_variants.py --tilt-deg``); ``None`` = ``policy`` alone."""
     tilt_deg: float = 45.0
     """With ``tilted_policy``: the hand-over tilt (deg)."""
+    stance_weight: float = 0.0
+    """> 0: blend the policy's actions this share of the way to the tall stance (hip 0, thigh
+    0.46, knee −0.92 rad) over ``stance_delay_s`` once the trunk has been upright within
+    ``stance_tilt_deg`` for ``stance_delay_s`` (``scripts/policy_variants.py
+    --pose-upright-weight``); 0 = off."""
+    stance_delay_s: float = 1.0
+    """With ``stance_weight``: the delay, and the ramp, of the blend (s)."""
+    stance_tilt_deg: float = 35.0
+    """With ``stance_weight``: how close to upright counts as upright (deg)."""
 
     def make_policy(self, cfg: BenchmarkConfig) -> Policy:
-        """``policy``, or its composite with ``tilted_policy``."""
+        """``policy``, or its composite with ``tilted_policy``, blended to the stance with ``stance_weight``."""
         from selfright.policies.registry import make_policy
 
-        first = make_policy(self.policy, cfg)
-        if self.tilted_policy is None:
-            return first
-        from selfright.policies.stall import TiltSwitch
-        from selfright.policies.variants import Fallback
+        policy = make_policy(self.policy, cfg)
+        if self.tilted_policy is not None:
+            from selfright.policies.stall import TiltSwitch
+            from selfright.policies.variants import Fallback
 
-        return Fallback(first, make_policy(self.tilted_policy, cfg), TiltSwitch(self.tilt_deg))
+            policy = Fallback(policy, make_policy(self.tilted_policy, cfg), TiltSwitch(self.tilt_deg))
+        if self.stance_weight > 0:
+            from selfright.policies.pose_blend import stance_action
+            from selfright.policies.variants import PoseUpright
+            from selfright.robots import get_robot
+
+            robot, steps = get_robot(cfg.robot.name), max(1, round(self.stance_delay_s / cfg.sim.control_dt_s))
+            policy = PoseUpright(policy, self.stance_tilt_deg, steps, range(len(robot.joint_names)),
+                                 stance_action(robot, cfg.action, (0.0, 0.46, -0.92)), steps,
+                                 label="stance", weight=self.stance_weight)
+        return policy
 
     @property
     def label(self) -> str:
         """The policy (or composite) for printing."""
-        if self.tilted_policy is None:
-            return self.policy
-        return f"{self.policy} + {self.tilted_policy} (tilted over {self.tilt_deg:g} deg)"
+        out = self.policy
+        if self.tilted_policy is not None:
+            out = f"{self.policy} + {self.tilted_policy} (tilted over {self.tilt_deg:g} deg)"
+        if self.stance_weight > 0:
+            out += f" ({self.stance_weight:g} of the way to the stance after {self.stance_delay_s:g} s upright)"
+        return out
 
     def bench_config(self) -> BenchmarkConfig:
         """The benchmark's configuration, with ``tile_size_m`` if given."""
