@@ -94,6 +94,12 @@ def test_replays_take_a_tilt_composite(monkeypatch, capsys):
 
     a = ReplayArgs(policy="zero", tilted_policy="random", tilt_deg=30.0)
     assert isinstance(a.make_policy(BenchmarkConfig()), Fallback) and "tilted over 30 deg" in a.label
+    from selfright.policies.variants import PoseUpright
+
+    b = ReplayArgs(policy="zero", stance_weight=0.3)  # --stance-weight: blended a share of the way to the stance
+    p = b.make_policy(BenchmarkConfig())
+    assert isinstance(p, PoseUpright) and p.weight == 0.3 and p.delay == p.ramp == 50
+    assert "0.3 of the way to the stance" in b.label
 
 
 def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
@@ -327,3 +333,31 @@ def test_kinematic_height_reports_the_error_and_final_readings(monkeypatch, caps
     head = capsys.readouterr().out.splitlines()[0]
     mean_m = float(head.split("mean ")[1].split(" m")[0])
     assert 0.0 < mean_m < 0.03  # feet sink a little into the contact: the estimate reads a bit high
+
+
+def test_graft_actor_keeps_the_runs_critic_and_std_and_takes_the_other_actor(tmp_path, monkeypatch, capsys):
+    import json
+
+    import torch
+
+    def actor(v: float) -> dict:
+        return {"mlp.0.weight": torch.full((2, 3), v), "distribution.std_param": torch.full((2,), v)}
+
+    run = tmp_path / "ppo"
+    run.mkdir()
+    torch.save({"actor_state_dict": actor(1.0), "critic_state_dict": {"w": torch.ones(1)}, "iter": 7}, run / "model_7.pt")
+    (run / "train_meta.json").write_text(json.dumps({"latest_checkpoint": str(run / "model_7.pt")}))
+    torch.save({"student_state_dict": actor(2.0)}, tmp_path / "student.pt")
+    out = tmp_path / "fork"
+    run_script("graft_actor.py", ["--run", str(run / "model_7.pt"), "--actor", str(tmp_path / "student.pt"),
+                                  "--out", str(out)], monkeypatch)
+    ck = torch.load(out / "model_7.pt", weights_only=False)
+    assert ck["actor_state_dict"]["mlp.0.weight"].eq(2.0).all()  # the other actor's weights
+    assert ck["actor_state_dict"]["distribution.std_param"].eq(1.0).all()  # the run's own std
+    assert ck["critic_state_dict"]["w"].eq(1.0).all() and ck["iter"] == 7
+    meta = json.loads((out / "train_meta.json").read_text())
+    assert meta["latest_checkpoint"] == str(out / "model_7.pt") and meta["grafted_actor"] == str(tmp_path / "student.pt")
+    torch.save({"student_state_dict": {"mlp.0.weight": torch.ones(4, 3)}}, tmp_path / "other.pt")
+    with pytest.raises(SystemExit, match="differ"):
+        run_script("graft_actor.py", ["--run", str(run / "model_7.pt"), "--actor", str(tmp_path / "other.pt"),
+                                      "--out", str(tmp_path / "fork2")], monkeypatch)
