@@ -60,7 +60,7 @@ def main(a: ReplayArgs) -> None:
             standing = np.zeros(len(eps))  # control steps upright on four feet, up to now
 
             def watch(active: np.ndarray, out: StepOutput) -> None:
-                st = env.robot_state(active)
+                st = out.state
                 stands = upright(st.roll, st.pitch, cfg.goal).numpy() & (st.feet_contact.sum(dim=-1).numpy() == 4)
                 standing[active] = np.where(stands, standing[active] + 1, 0)
                 ever_goal[active] |= out.in_goal.numpy()

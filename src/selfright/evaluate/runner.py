@@ -167,8 +167,8 @@ class ReplayArgs:
     tilt_deg: float = 45.0
     """With ``tilted_policy``: the hand-over tilt (deg)."""
     stance_weight: float = 0.0
-    """> 0: blend the policy's actions this share of the way to the tall stance (hip 0, thigh
-    0.46, knee −0.92 rad) over ``stance_delay_s`` once the trunk has been upright within
+    """> 0: blend the policy's actions this share of the way to the tall stance
+    (``RewardConfig.stance_pose``: hip 0, thigh 0.46, knee −0.92 rad) over ``stance_delay_s`` once the trunk has been upright within
     ``stance_tilt_deg`` for ``stance_delay_s`` (``scripts/policy_variants.py
     --pose-upright-weight``); 0 = off."""
     stance_delay_s: float = 1.0
@@ -187,13 +187,14 @@ class ReplayArgs:
 
             policy = Fallback(policy, make_policy(self.tilted_policy, cfg), TiltSwitch(self.tilt_deg))
         if self.stance_weight > 0:
+            from selfright.config import RewardConfig
             from selfright.policies.pose_blend import stance_action
             from selfright.policies.variants import PoseUpright
             from selfright.robots import get_robot
 
             robot, steps = get_robot(cfg.robot.name), max(1, round(self.stance_delay_s / cfg.sim.control_dt_s))
             policy = PoseUpright(policy, self.stance_tilt_deg, steps, range(len(robot.joint_names)),
-                                 stance_action(robot, cfg.action, (0.0, 0.46, -0.92)), steps,
+                                 stance_action(robot, cfg.action, RewardConfig().stance_pose), steps,
                                  label="stance", weight=self.stance_weight)
         return policy
 

@@ -17,14 +17,20 @@ def upright_count(count: torch.Tensor, upright: torch.Tensor) -> torch.Tensor:
     return torch.where(upright.to(count.device), count + 1.0, torch.zeros((), dtype=count.dtype))
 
 
+def blend_weight(weight: float) -> float:
+    """``weight`` as a float, checked to lie in (0, 1]: how far a pose blend goes (1 = all the way
+    to the pose). The blend's users check it once, when they are built."""
+    if not 0.0 < weight <= 1.0:
+        raise ValueError(f"the pose blend weight is in (0, 1], got {weight}")
+    return float(weight)
+
+
 def pose_blend(actions: torch.Tensor, count: torch.Tensor, delay_steps: int, ramp_steps: int,
                target: torch.Tensor, columns: list[int] | None = None, weight: float = 1.0) -> torch.Tensor:
     """``actions`` (k, J) with ``columns`` (all when None) blended towards ``target`` (len(columns),)
     by w = ``weight`` · clamp((count − delay) / ramp, 0, 1): the slot's own action until the trunk
     has been upright ``delay_steps`` steps, then, after ``ramp_steps`` more, the target (``weight``
     1) or a share ``weight`` of the way to it (the policy's own corrections kept)."""
-    if not 0.0 < weight <= 1.0:
-        raise ValueError(f"the blend weight is in (0, 1], got {weight}")
     w = weight * ((count - delay_steps) / ramp_steps).clamp(0.0, 1.0).to(actions.device, actions.dtype)[:, None]
     out = actions.clone()
     cols = list(range(actions.shape[1])) if columns is None else columns

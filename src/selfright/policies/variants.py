@@ -17,7 +17,7 @@ from selfright.env.observations import privileged_columns
 from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.history import ObsHistory
-from selfright.policies.pose_blend import pose_blend, upright_count
+from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
 from selfright.policies.slots import grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
 from selfright.train.symmetry import group_mirrors, mirror
@@ -173,10 +173,8 @@ class PoseUpright(Policy):
             raise ValueError(f"the pose ramp needs at least one step, got {ramp_steps}")
         if delay_steps < 0:
             raise ValueError(f"the pose delay cannot be negative, got {delay_steps}")
-        if not 0.0 < weight <= 1.0:
-            raise ValueError(f"the pose blend weight is in (0, 1], got {weight}")
         self.inner, self.ramp, self.delay, self.cols = inner, int(ramp_steps), int(delay_steps), list(columns)
-        self.weight = float(weight)
+        self.weight = blend_weight(weight)
         self.target = torch.zeros(len(self.cols)) if target is None else torch.as_tensor(target, dtype=torch.float32)
         if self.target.shape != (len(self.cols),):
             raise ValueError(f"one target per column: {len(self.cols)} columns, target of shape {tuple(self.target.shape)}")

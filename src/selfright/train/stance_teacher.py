@@ -17,14 +17,15 @@ import torch
 from torch import nn
 
 from selfright.policies.actor import ActorMLP
-from selfright.policies.pose_blend import pose_blend, upright_count
+from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
 from selfright.policies.stall import TiltSwitch
 
 
 class StanceTeacher(nn.Module):
     """``base``'s actions on the ``group`` observation, blended over ``ramp_steps`` to ``target``
     (J,) (action units; a share ``weight`` of the way) once the trunk has been upright for
-    ``delay_steps`` control steps; handed straight back when it tilts over. rsl_rl's ``Distillation`` calls ``reset(dones)`` every step."""
+    ``delay_steps`` control steps; handed straight back when it tilts over. rsl_rl's
+    ``Distillation`` calls ``reset(dones)`` every step."""
 
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
                  ramp_steps: int, target: torch.Tensor, weight: float = 1.0):
@@ -33,9 +34,7 @@ class StanceTeacher(nn.Module):
             raise ValueError(f"the stance needs a ramp of at least one step and a delay ≥ 0, got {ramp_steps}, {delay_steps}")
         self.base, self.group = base, group
         self.tilted = TiltSwitch(tilt_deg)
-        if not 0.0 < weight <= 1.0:
-            raise ValueError(f"the stance blend weight is in (0, 1], got {weight}")
-        self.delay, self.ramp, self.weight = int(delay_steps), int(ramp_steps), float(weight)
+        self.delay, self.ramp, self.weight = int(delay_steps), int(ramp_steps), blend_weight(weight)
         self.register_buffer("target", torch.as_tensor(target, dtype=torch.float32))
         self.count = torch.zeros(num_envs)
         """Control steps each env's trunk has been upright (CPU)."""
