@@ -551,6 +551,13 @@ def test_student_ppo_starts_as_the_student_with_the_teachers_critic_and_deploys_
     assert not torch.equal(moved["mlp.0.weight"], actor_before["mlp.0.weight"])  # after the warm-up PPO moves the actor
     with pytest.raises(ValueError, match="must be a student"):
         TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=teacher, init_from=teacher)).setup()
+    # a student-ppo run lends its critic and action std to another (a fork under a new reward)
+    fork = TrainingRun(spec(tmp_path / "fork", role="student-ppo", teacher=out, init_from=student))
+    fork.setup()
+    for k, v in torch.load(list_checkpoints(out)[-1][1], weights_only=False)["critic_state_dict"].items():
+        assert torch.equal(fork.runner.alg.critic.state_dict()[k], v)
+    with pytest.raises(ValueError, match="needs a teacher run"):  # a distilled student has no critic
+        TrainingRun(spec(tmp_path / "bad2", role="student-ppo", teacher=student, init_from=student)).setup()
     card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
     assert f"PPO on its own observations from the distilled student `{student}`" in card
     assert "its last 2 frames stacked" in card and "distilled from" not in card

@@ -87,12 +87,21 @@ class RunSpec:
 
 
 # ------------------------------------------------------------------ checkpoints
-def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyConfig, dict[str, Any]]:
+def teacher_policy_config(ckpt: Path, fallback: PolicyConfig,
+                          critic_source: bool = False) -> tuple[PolicyConfig, dict[str, Any]]:
     """The network config of a trained teacher, from its run's ``train_meta.json``, else read off
-    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta."""
+    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta.
+    ``critic_source``: the checkpoint only lends its critic and action std (``--role
+    student-ppo``), so a student-ppo run is accepted too; its config is then its critic's."""
     meta = read_meta(ckpt.parent)
-    if meta.get("role", "teacher") != "teacher":
-        raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher)")
+    role = meta.get("role", "teacher")
+    if critic_source and role == "student-ppo":
+        crit = meta["teacher_policy"]
+        return replace(fallback, hidden_dims=tuple(crit["hidden_dims"]), activation=crit["activation"],
+                       obs_normalization=bool(crit["obs_normalization"]), state_dependent_std=False), meta
+    if role != "teacher":
+        extra = " or, for --role student-ppo, a student-ppo run" if critic_source else ""
+        raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher){extra}")
     pol = meta.get("policy")
     if pol:
         return (
@@ -247,7 +256,8 @@ class TrainingRun:
             self._check_student_mapping(self.stance_base, flag)
             teacher_policy = s.train.policy  # (rsl_rl's own teacher is built, then replaced by StanceTeacher)
         elif s.role in ("student", "student-ppo"):
-            teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
+            teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy,
+                                                                 critic_source=s.role == "student-ppo")
             if teacher_meta.get("context") not in (None, s.context):
                 print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
             teacher_ref = (teacher_meta.get("policy") or {}).get("action_reference", "stand")
