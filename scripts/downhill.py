@@ -38,7 +38,8 @@ class Args(ReplayArgs):
 
 def travel(a: ReplayArgs) -> np.ndarray:
     """(n, 4): x when control starts, x at the end (m, +x uphill), success (0/1), and the trunk's
-    tilt from vertical when control starts (deg) per episode."""
+    tilt from vertical when control starts (deg) per episode; "when control starts" is the state
+    after the first control step (0.02 s in)."""
     cfg = a.bench_config()
     policy = a.make_policy(cfg)
     env, cells = replay_env(a, cfg)
