@@ -95,14 +95,11 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig,
     student-ppo``), so a student-ppo run is accepted too; its config is then its critic's."""
     meta = read_meta(ckpt.parent)
     role = meta.get("role", "teacher")
-    if critic_source and role == "student-ppo":
-        crit = meta["teacher_policy"]
-        return replace(fallback, hidden_dims=tuple(crit["hidden_dims"]), activation=crit["activation"],
-                       obs_normalization=bool(crit["obs_normalization"]), state_dependent_std=False), meta
-    if role != "teacher":
+    lends_critic = critic_source and role == "student-ppo"
+    if role != "teacher" and not lends_critic:
         extra = " or, for --role student-ppo, a student-ppo run" if critic_source else ""
         raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher){extra}")
-    pol = meta.get("policy")
+    pol = meta["teacher_policy"] if lends_critic else meta.get("policy")  # a student-ppo run's critic network
     if pol:
         return (
             replace(
