@@ -108,3 +108,29 @@ def test_tall_pose_stands_higher_than_the_stand_pose(world):
     assert ROBOT.reference_pose("current") is None
     with pytest.raises(ValueError, match="no 'tall' pose"):
         dataclasses.replace(ROBOT, tall_pose=None).reference_pose("tall")
+
+
+def test_joint_stops_are_hard(world):
+    """A motor saturated past a stop (33.5 N·m) holds the joint within 0.03 rad of it. MuJoCo's
+    default limit softness (solreflimit 0.02 s) let the knee sit 0.28 rad past its stop."""
+    m = world.model
+    knees = [m.joint(f"{leg}_calf_joint").id for leg in ("FR", "FL", "RR", "RL")]
+    assert np.allclose(m.jnt_solref[knees, 0], BenchmarkConfig().robot.joint_stop_timeconst_s)
+    d = mujoco.MjData(m)
+    d.qpos[:] = m.qpos0
+    d.qpos[2] = 2.0  # trunk in the air, held still below
+    d.ctrl[:] = m.jnt_range[1:, 1] + 3.0  # every target far past the upper stop: torques saturate
+    for _ in range(400):
+        d.qpos[:7] = [0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0]
+        d.qvel[:6] = 0.0
+        mujoco.mj_step(m, d)
+    assert np.allclose(np.abs(d.actuator_force), 33.5)
+    past = d.qpos[m.jnt_qposadr[knees]] - m.jnt_range[knees, 1]
+    assert np.all(past < 0.03), past
+
+
+def test_joint_stop_softer_than_the_physics_step_allows_is_refused():
+    cfg = BenchmarkConfig()
+    bad = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, joint_stop_timeconst_s=0.005))
+    with pytest.raises(ValueError, match="twice the step"):
+        build_world(make_cell(0, 0, bad.terrain), bad, ContextConfig(), 0)

@@ -364,3 +364,12 @@ def test_graft_actor_keeps_the_runs_critic_and_std_and_takes_the_other_actor(tmp
     with pytest.raises(SystemExit, match="differ"):
         run_script("graft_actor.py", ["--run", str(run / "model_7.pt"), "--actor", str(tmp_path / "other.pt"),
                                       "--out", str(tmp_path / "fork2")], monkeypatch)
+
+
+def test_joint_stops_reports_each_joint_kind_and_the_rated_speed(monkeypatch, capsys):
+    run_script("joint_stops.py", ["--policy", "random", "--grid", "flat", "--episodes", "2"], monkeypatch)
+    out = capsys.readouterr().out
+    assert " / 2 successes" in out
+    for kind in ("abduction", "hip", "knee"):
+        assert kind in out
+    assert "faster than 21 rad/s" in out

@@ -80,3 +80,21 @@ def test_a_resumed_evaluation_refuses_other_weights_under_the_same_name(tmp_path
     evaluate_grid(flat, policy_name="flat", grid="tiny", episodes=1, seed=0, out_dir=tmp_path, cfg=cfg, progress=False)
     with pytest.raises(ResultsError, match="policy_digest"):
         evaluate_grid(teacher, policy_name="flat", grid="tiny", episodes=1, seed=0, out_dir=tmp_path, cfg=cfg, progress=False)
+
+
+def test_a_remeasured_card_states_the_new_number_and_keeps_the_old():
+    from selfright.train.ship import SUCCESS_PREFIX, remeasured_card
+
+    card = (CHECKPOINT_DIR / "flat.md").read_text()
+    overall = {"n": 64, "successes": 32, "success_rate": 0.5, "success_ci95": [0.38, 0.62], "ttr_mean_s": 2.0, "dtr_mean_m": None}
+    summary = {"policy": "flat", "grid": "flat", "episodes_per_cell": 64, "seed": 3, "overall": overall,
+               "machine": {"cpu": "Test CPU"}}
+    new = remeasured_card(card, "flat", summary, "a change")
+    assert new.count(SUCCESS_PREFIX) == 1
+    line = next(x for x in new.splitlines() if x.startswith(SUCCESS_PREFIX))
+    assert "**50.0 %**" in line and "38–62 %" in line and "DTR n/a" in line and "measured on Test CPU" in line
+    old = next(x for x in card.splitlines() if x.startswith(SUCCESS_PREFIX)).removeprefix(SUCCESS_PREFIX)
+    assert f"  - *Before a change*{old}" in new
+    assert "--seed 3`" in new and new.startswith(card.split(SUCCESS_PREFIX)[0])
+    with pytest.raises(ValueError, match="not the shipped"):
+        remeasured_card(card, "flat", {**summary, "policy": "rough"}, "a change")

@@ -61,6 +61,12 @@ class RobotConfig:
     """PD stiffness of every joint (N·m/rad)."""
     kd: float = 1.0
     """PD damping of every joint (N·m·s/rad)."""
+    joint_stop_timeconst_s: float = 0.01
+    """Stiffness of the joints' hard stops: MuJoCo's joint-limit ``solreflimit`` time constant
+    (s); smaller = stiffer, at least 2 × ``SimConfig.timestep_s`` (MuJoCo's stable minimum).
+    MuJoCo's default, 0.02 s, let a saturated motor hold a knee 0.28 rad past its stop and
+    impacts drive joints up to 0.4 rad past theirs; at 0.01 s the same knee stays within
+    0.02 rad (``tests/test_model.py``; README, *What the benchmark measures*)."""
 
 
 @dataclass(frozen=True, kw_only=True)

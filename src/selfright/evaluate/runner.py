@@ -20,6 +20,7 @@ from selfright.config import BenchmarkConfig, ContextConfig, to_dict
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
 from selfright.evaluate.metrics import summarize
+from selfright.machine import machine
 from selfright.evaluate.results import (
     EpisodeWriter,
     check_run_identity,
@@ -267,7 +268,8 @@ def _summary(identity, cells, worlds, rough, rows) -> dict[str, Any]:
             "slope_deg": c.slope_deg, "roughness_extent_m": c.roughness_extent_m, "roughness_R": rough[k],
             "friction": worlds[k].context.friction, "context": c.context, **stats,
         })
-    return {**identity, "cells": out_cells, "overall": summarize(rows)}
+    # The machine: rows are byte-identical on one machine, not across CPU generations (README, *Seeds*).
+    return {**identity, "machine": machine(), "cells": out_cells, "overall": summarize(rows)}
 
 
 def format_table(summary: dict[str, Any], max_rows: int = 40) -> str:

@@ -19,6 +19,7 @@ _HIP_RANGE = (-1.0472, 4.18879)
 _KNEE_RANGE = (-2.69653, -0.916298)
 TORQUE_LIMIT = 33.5
 ARMATURE = 0.01  # reflected rotor inertia of the geared motor (kg·m²), typical for the A1
+STOP_TIMECONST_S = 0.01  # hard joint stops: solreflimit time constant (RobotConfig's default)
 
 
 def _leg_xml(leg: str) -> str:
@@ -46,8 +47,9 @@ def _leg_xml(leg: str) -> str:
       </body>"""
 
 
-def a1_mjcf(kp: float, kd: float) -> str:
-    """MJCF text of the A1 alone, PD position servos with gains ``kp`` (N·m/rad), ``kd`` (N·m·s/rad)."""
+def a1_mjcf(kp: float, kd: float, stop_timeconst_s: float = STOP_TIMECONST_S) -> str:
+    """MJCF text of the A1 alone, PD position servos with gains ``kp`` (N·m/rad), ``kd`` (N·m·s/rad),
+    joint stops of ``solreflimit`` time constant ``stop_timeconst_s`` (s)."""
     legs = "".join(_leg_xml(leg) for leg in LEGS)
     actuators = "\n".join(
         f'    <position name="{leg}_{j}" joint="{leg}_{j}_joint" class="pd"/>'
@@ -57,7 +59,7 @@ def a1_mjcf(kp: float, kd: float) -> str:
     return f"""<mujoco model="unitree_a1">
   <compiler angle="radian" autolimits="true"/>
   <default>
-    <joint limited="true" armature="{ARMATURE}" damping="0.01"/>
+    <joint limited="true" armature="{ARMATURE}" damping="0.01" solreflimit="{stop_timeconst_s} 1"/>
     <default class="abduction"><joint axis="1 0 0" range="{_ABD_RANGE[0]} {_ABD_RANGE[1]}"/></default>
     <default class="hip"><joint axis="0 1 0" range="{_HIP_RANGE[0]} {_HIP_RANGE[1]}"/></default>
     <default class="knee"><joint axis="0 1 0" range="{_KNEE_RANGE[0]} {_KNEE_RANGE[1]}"/></default>
@@ -114,6 +116,7 @@ A1 = RobotSpec(
     stand_height_m=0.35,
     body_length_m=0.5,
     torque_limit=TORQUE_LIMIT,
+    rated_joint_speed=21.0,
     mjcf=a1_mjcf,
     # The abduction joint turns about x, so mirroring y flips its angle; hip and knee turn
     # about y and keep theirs. The model is mirror-symmetric up to the trunk's 4 mm COM offset

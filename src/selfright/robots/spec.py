@@ -46,8 +46,14 @@ class RobotSpec:
     """Overall body length (m)."""
     torque_limit: float
     """Motor torque limit (N·m)."""
-    mjcf: Callable[[float, float], str]
-    """``mjcf(kp, kd)`` -> MJCF text of the robot alone (a ``<mujoco>`` document)."""
+    rated_joint_speed: float | None = None
+    """Published maximum joint speed of the motors (rad/s). Not enforced by the model (its
+    motors give full torque at any speed); ``scripts/joint_stops.py`` reports how often
+    policies exceed it. None: not published."""
+    mjcf: Callable[..., str]
+    """``mjcf(kp, kd, stop_timeconst_s=...)`` -> MJCF text of the robot alone (a ``<mujoco>``
+    document), PD gains ``kp``, ``kd`` and hard joint stops of that ``solreflimit`` time
+    constant (s; ``RobotConfig.joint_stop_timeconst_s``)."""
     tall_pose: np.ndarray | None = None
     """Standing joint angles with straighter legs than ``stand_pose`` (rad), the action
     reference of ``ActionConfig.reference="tall"``; None: the robot has none."""

@@ -71,7 +71,12 @@ def _walls_xml(tile: Tile, ctx: ContextConfig, robot: RobotSpec, contact: str) -
 
 def scene_mjcf(robot: RobotSpec, tile: Tile, ctx: ContextConfig, robot_cfg: RobotConfig, sim: SimConfig) -> str:
     """Self-contained MJCF text: ``robot`` on ``tile`` under context ``ctx``."""
-    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd)
+    if robot_cfg.joint_stop_timeconst_s < 2 * sim.timestep_s:
+        raise ValueError(
+            f"joint_stop_timeconst_s {robot_cfg.joint_stop_timeconst_s} s is under 2 × the {sim.timestep_s} s "
+            "physics step, which MuJoCo would silently raise; use at least twice the step"
+        )
+    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s)
     inner = re.search(r"<mujoco[^>]*>(.*)</mujoco>", body, re.S)
     assert inner is not None
     robot_xml = inner.group(1)

@@ -17,7 +17,6 @@ import copy
 import io
 import json
 import os
-import platform
 import re
 import shlex
 import signal
@@ -34,6 +33,7 @@ from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m
+from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
 from selfright.policies.pose_blend import stance_action
 from selfright.policies.reference import reference_offset
@@ -463,7 +463,7 @@ class TrainingRun:
             "latest_checkpoint": str(checkpoint) if checkpoint else None,
             "policy": self.policy_meta(),
             "teacher_policy": to_dict(self.teacher_policy) if self.teacher_policy else None,
-            "versions": _versions(),
+            "versions": versions(),
             "train_config": to_dict(s.train),
             "benchmark_config": to_dict(s.bench),
         }
@@ -619,22 +619,13 @@ def _recenter_constant_features(alg: Any, obs: Any, eps: float = 1e-3) -> list[i
 
 
 def _device_string(physics_threads: int, torch_threads: int, device: str = "cpu") -> str:
-    cpu = platform.processor() or platform.machine()
+    cpu = cpu_model()
     text = f"cpu ({cpu}, {os.cpu_count()} cores; physics threads {physics_threads}, torch threads {torch_threads})"
     if device.startswith("cuda"):
         text += f"; networks on {device} ({torch.cuda.get_device_name(torch.device(device))})"
     elif device != "cpu":
         text += f"; networks on {device}"
     return text
-
-
-def _versions() -> dict[str, str]:
-    import mujoco
-    import rsl_rl  # noqa: F401
-    from importlib.metadata import version
-
-    return {"rsl_rl_lib": version("rsl-rl-lib"), "torch": torch.__version__, "mujoco": mujoco.__version__,
-            "python": platform.python_version()}
 
 
 def _hms(s: float) -> str:

@@ -150,16 +150,12 @@ def model_card(
 ) -> str:
     """Markdown model card from a run's meta, an evaluation summary, the shipped actor's
     metadata (what it reads: group, history frames, GRU) and optional notes."""
-    o = summary["overall"]
-    lo, hi = o["success_ci95"]
     steps = int(meta.get("env_steps", 0))
     hours = float(meta.get("wall_clock_s", 0.0)) / 3600
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
     teacher = meta.get("teacher")
     fallback, fallback_words = _fallback_teacher(meta)
     label_words = fallback_words + _stance_words(meta)  # how the distillation labels were made
-    ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
-    dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     pol = meta.get("policy") or {}
     ppo_student = meta.get("role") == "student-ppo"
     lines = [
@@ -183,12 +179,7 @@ def model_card(
         f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
-        f"- **Success in its context** (`--grid {summary.get('grid')}`, N = {o['n']}): "
-        f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
-        f"mean TTR {ttr}, mean DTR {dtr}",
-        f"- **Evaluation seed**: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell; "
-        f"reproduce with `selfright evaluate --policy {name} --grid {summary.get('grid')} "
-        f"--episodes {summary.get('episodes_per_cell')} --seed {summary.get('seed', 0)}`",
+        *success_lines(name, summary),
         f"- **Versions**: {json.dumps(meta.get('versions', {}))}",
         "",
         "Trained with (each line one invocation; resumed runs list several):",
@@ -201,6 +192,43 @@ def model_card(
     if notes:
         lines += ["## Notes", "", notes, ""]
     return "\n".join(lines)
+
+
+SUCCESS_PREFIX = "- **Success in its context**"
+SEED_PREFIX = "- **Evaluation seed**"
+
+
+def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
+    """The card's two lines on the policy's success in its context (and the machine it was
+    measured on, where the summary records it) and how to reproduce it."""
+    o = summary["overall"]
+    lo, hi = o["success_ci95"]
+    ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
+    dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
+    cpu = (summary.get("machine") or {}).get("cpu")
+    return [
+        f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`, N = {o['n']}): "
+        f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
+        f"mean TTR {ttr}, mean DTR {dtr}" + (f"; measured on {cpu}" if cpu else ""),
+        f"{SEED_PREFIX}: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell; "
+        f"reproduce with `selfright evaluate --policy {name} --grid {summary.get('grid')} "
+        f"--episodes {summary.get('episodes_per_cell')} --seed {summary.get('seed', 0)}`",
+    ]
+
+
+def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str) -> str:
+    """``card_text`` with its success and seed lines rewritten from a new evaluation
+    ``summary`` of the shipped policy, the lines they replace kept below them as
+    "Before <why>" (the policy is unchanged; the benchmark or machine it is measured on is not)."""
+    lines = card_text.splitlines()
+    at = [i for i, line in enumerate(lines) if line.startswith(SUCCESS_PREFIX)]
+    if len(at) != 1 or at[0] + 1 >= len(lines) or not lines[at[0] + 1].startswith(SEED_PREFIX):
+        raise ValueError(f"the {name} card has no single success line followed by its seed line")
+    if summary.get("policy") != name:
+        raise ValueError(f"the evaluation is of --policy {summary.get('policy')!r}, not the shipped {name!r}")
+    i = at[0]
+    before = lines[i].removeprefix(SUCCESS_PREFIX)
+    return "\n".join([*lines[:i], *success_lines(name, summary), f"  - *Before {why}*{before}", *lines[i + 2:]]) + "\n"
 
 
 OWN_WORDS = (
