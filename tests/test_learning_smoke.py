@@ -601,3 +601,40 @@ def test_student_distils_a_fixed_stance_from_another_student(tmp_path: Path):
     with pytest.raises(ValueError, match="stance-ramp-s"):
         TrainingRun(spec(tmp_path / "bad", role="student-ppo", teacher=tmp_path / "teacher", init_from=base,
                          train=train)).setup()
+    rescued = dataclasses.replace(stance, rescue_student=str(base_file))  # stalls labelled by a second student
+    q = TrainingRun(spec(tmp_path / "rescued", role="student", teacher=base,
+                         train=dataclasses.replace(TINY, distillation=rescued)))
+    q.setup()
+    assert q.runner.alg.teacher.rescue is not None and q.runner.alg.teacher.rescue_group == "student"
+    no_stance = dataclasses.replace(TINY.distillation, rescue_student=str(base_file))
+    with pytest.raises(ValueError, match="rescue-student"):
+        TrainingRun(spec(tmp_path / "bad3", role="student", teacher=base,
+                         train=dataclasses.replace(TINY, distillation=no_stance))).setup()
+
+
+def test_stance_teacher_hands_a_tilted_stall_to_the_rescue_student():
+    """--train.distillation.rescue-student: a robot lying still, tilted over, for the stall time is
+    labelled by the rescue student (its actions and its previous-action input converted between
+    references) until the hand-over time runs out; an episode's end resets the count."""
+    from selfright.env.observations import prev_action_columns
+    from selfright.policies.stall import StallSwitch
+    from selfright.train.stance_teacher import StanceTeacher
+
+    cols = prev_action_columns(12)
+    base = lambda x: torch.zeros(x.shape[0], 12)  # noqa: E731
+    rescue = lambda x: x[:, cols].clone()  # noqa: E731  (echoes the previous action it reads)
+    offset = torch.full((12,), 0.5)
+    teacher = StanceTeacher(base, "student", 3, 35.0, 100, 1, torch.zeros(12), rescue=rescue,
+                            rescue_switch=StallSwitch(2, 2, None, 12), rescue_offset=offset)
+    x = torch.zeros(3, 79)
+    x[:, 0:3] = torch.tensor([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])  # lying on a side; upright
+    x[:, cols] = 1.0
+    obs = {"teacher": x, "student": x[:, :42]}
+    assert torch.equal(teacher(obs), torch.zeros(3, 12))  # still for one step: not yet
+    labels = teacher(obs)  # two steps: the tilted one is handed over, its input shifted into its own units
+    torch.testing.assert_close(labels[0], torch.full((12,), 1.0))  # (1 − 0.5) + 0.5
+    assert torch.equal(labels[1:], torch.zeros(2, 12))  # upright robots are never rescued
+    teacher.reset(torch.tensor([True, False, False]))
+    assert torch.equal(teacher(obs), torch.zeros(3, 12))
+    with pytest.raises(ValueError, match="hand-over rule"):
+        StanceTeacher(base, "student", 3, 35.0, 100, 1, torch.zeros(12), rescue=rescue)

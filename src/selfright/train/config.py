@@ -336,6 +336,15 @@ class DistillationConfig:
     """With ``stance_ramp_s``: how far the labels blend, in (0, 1]: 1 = all the way to
     ``stance_pose``; 0.3 = the base student's action moved 30 % of the way there, its own
     balance corrections kept (on the 20° incline the full stance tips over; docs/training.md)."""
+    rescue_student: str | None = None
+    """With ``stance_ramp_s``: a feed-forward student (policy name, file or run) whose actions
+    label the states where the robot has lain still, tilted more than 30°, for ``stall_s``, and
+    for ``rescue_s`` after (``StallSwitch`` without a height bar: what the IMU and joint speeds
+    tell), instead of the base student's; converted between ``stand`` / ``tall`` references.
+    Distils the evaluation-time stall rescue (``scripts/stall_rotation.py --no-below-bar``).
+    **Not** the seed's recipe. None = off."""
+    rescue_s: float = 1.0
+    """With ``rescue_student``: how long it labels after a stall (s)."""
 
 
 @dataclass(frozen=True, kw_only=True)

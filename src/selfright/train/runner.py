@@ -37,7 +37,7 @@ from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
 from selfright.policies.pose_blend import stance_action
 from selfright.policies.reference import reference_offset
-from selfright.policies.stall import ScanSwitch, hand_over_rule
+from selfright.policies.stall import ScanSwitch, StallSwitch, hand_over_rule
 from selfright.train.checkpoints import (
     CHECKPOINT_RE,
     META_FILE,
@@ -210,6 +210,9 @@ class TrainingRun:
         if d.stance_ramp_s > 0 and (s.role != "student" or d.fallback_teacher is not None or d.student_gru > 0):
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
                              "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
+        if d.rescue_student is not None and d.stance_ramp_s <= 0:
+            raise ValueError("--train.distillation.rescue-student labels a stance student's stalls: it needs "
+                             "--train.distillation.stance-ramp-s (and --teacher STUDENT)")
         if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
             raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
                              "no --train.distillation.student-gru)")
@@ -374,9 +377,20 @@ class TrainingRun:
         robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
         base = self.stance_base.to(s.device).eval()
         target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
+        rescue = {}
+        if d.rescue_student is not None:
+            flag = "--train.distillation.rescue-student"
+            net = load_student(Path(d.rescue_student), flag)
+            if net.meta.obs_history not in (1, d.student_history):
+                raise ValueError(f"{flag} reads {net.meta.obs_history} frames; the env stacks 1 and {d.student_history}")
+            mapping = (net.meta.action_reference or s.bench.action.reference, net.meta.action_scale_rad)
+            offset = reference_offset(robot, mapping, s.bench.action)
+            rescue = dict(rescue=net.to(s.device).eval(), rescue_group=student_group(net.meta.obs_history),
+                          rescue_switch=StallSwitch(round(d.stall_s / dt), round(d.rescue_s / dt), None, robot.num_joints),
+                          rescue_offset=None if offset is None else torch.as_tensor(offset, dtype=torch.float32))
         teacher = StanceTeacher(base, student_group(d.student_history), s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
-                                weight=d.stance_weight)
+                                weight=d.stance_weight, **rescue)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:

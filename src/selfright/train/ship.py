@@ -133,7 +133,10 @@ def _stance_words(meta: dict[str, Any]) -> str:
     share = "" if weight == 1.0 else f"{weight:g} of the way "
     return (f"; its labels are that student's own actions, blended over {ramp:g} s {share}to a fixed stance (hip, thigh, "
             f"knee {pose} rad on every leg) once the trunk has been upright within {d.get('stance_tilt_deg', 15.0):g}° "
-            f"for {d.get('stance_delay_s', 2.0):g} s, and it started as a copy of that student (**not the seed's recipe**)")
+            f"for {d.get('stance_delay_s', 2.0):g} s"
+            + (f"; a robot that has lain still, tilted over, for {d.get('stall_s', 0.5):g} s is labelled for "
+               f"{d.get('rescue_s', 1.0):g} s by the student `{d['rescue_student']}`" if d.get("rescue_student") else "")
+            + ", and it started as a copy of that student (**not the seed's recipe**)")
 
 
 def _lineage(meta: dict[str, Any], teacher: str | None, label_words: str) -> str:

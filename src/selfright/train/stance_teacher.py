@@ -9,6 +9,11 @@ it by distillation: the labels are a base student's own actions, blended to the 
 the trunk has been upright (projected gravity within ``tilt_deg`` of down) for a delay, as
 ``selfright.policies.variants.PoseUpright`` does at evaluation. The delay is a count of steps
 the student does not observe; what it learns is the expected label given its observation.
+
+Optionally a second, *rescue* student labels the states where the robot has lain still, tilted
+over (``StallSwitch`` without a height bar: IMU and joint speeds only), for a while: the
+incline student lies still on its side in about one miss in ten, and handing those stalls to
+the `flat` student at evaluation gets up from more falls (docs/training.md, *Hard joint stops*).
 """
 
 from __future__ import annotations
@@ -18,7 +23,8 @@ from torch import nn
 
 from selfright.policies.actor import ActorMLP
 from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
-from selfright.policies.stall import TiltSwitch
+from selfright.policies.reference import in_own_units
+from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
 class StanceTeacher(nn.Module):
@@ -28,8 +34,19 @@ class StanceTeacher(nn.Module):
     ``Distillation`` calls ``reset(dones)`` every step."""
 
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
-                 ramp_steps: int, target: torch.Tensor, weight: float = 1.0):
+                 ramp_steps: int, target: torch.Tensor, weight: float = 1.0, rescue: ActorMLP | None = None,
+                 rescue_group: str = "student", rescue_switch: StallSwitch | None = None,
+                 rescue_offset: torch.Tensor | None = None):
+        """``rescue`` (reading ``rescue_group``) labels where ``rescue_switch`` hands over; its
+        actions are shifted by ``rescue_offset`` (J,) (its reference pose − the base's, in action
+        units; None when they share one) into the base's units."""
         super().__init__()
+        if (rescue is None) != (rescue_switch is None):
+            raise ValueError("a rescue student needs its hand-over rule, and the rule a rescue student")
+        self.rescue, self.rescue_group, self.rescue_switch = rescue, rescue_group, rescue_switch
+        self.rescue_offset = None if rescue_offset is None else torch.as_tensor(rescue_offset, dtype=torch.float32)
+        self.fresh = torch.ones(num_envs, dtype=torch.bool)
+        """Envs whose episode has not taken a step yet (their previous action reads 0 in any units)."""
         if ramp_steps < 1 or delay_steps < 0:
             raise ValueError(f"the stance needs a ramp of at least one step and a delay ≥ 0, got {ramp_steps}, {delay_steps}")
         self.base, self.group = base, group
@@ -44,13 +61,29 @@ class StanceTeacher(nn.Module):
         x = obs["teacher"]  # the current frame's student columns come first (projected gravity at 0:3)
         up = ~self.tilted.step(x, torch.arange(x.shape[0]))
         self.count = upright_count(self.count, up)
-        return pose_blend(self.base(obs[self.group]), self.count, self.delay, self.ramp, self.target,
-                          weight=self.weight)
+        labels = pose_blend(self.base(obs[self.group]), self.count, self.delay, self.ramp, self.target,
+                            weight=self.weight)
+        if self.rescue is not None:
+            use = self.rescue_switch.step(x, torch.arange(x.shape[0])).to(labels.device)
+            if use.any():
+                labels = torch.where(use[:, None], self._rescue_action(obs[self.rescue_group]), labels)
+            self.fresh = torch.zeros_like(self.fresh)
+        return labels
+
+    def _rescue_action(self, x: torch.Tensor) -> torch.Tensor:
+        if self.rescue_offset is None:
+            return self.rescue(x)
+        offset = self.rescue_offset.to(x.device)
+        return self.rescue(in_own_units(x, offset, ~self.fresh)) + offset
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:
             # out of place: the count may have been made under rsl_rl's inference mode
-            self.count = self.count.masked_fill(dones.reshape(-1).bool().cpu(), 0.0)
+            done = dones.reshape(-1).bool().cpu()
+            self.count = self.count.masked_fill(done, 0.0)
+            self.fresh = self.fresh | done
+            if self.rescue_switch is not None:
+                self.rescue_switch.reset(done)
 
     def get_hidden_state(self):
         return None
