@@ -102,3 +102,12 @@ def test_student_must_use_its_teachers_action_reference(tmp_path, capsys):
                          "--out", str(tmp_path / "s"), "--envs", "2", "--iterations", "1", "--action-reference", "tall"],
                         capsys)
     assert_clean_error(code, cap, "--action-reference stand")
+
+
+def test_evaluate_with_dc_motors_records_the_motor_model(tmp_path, capsys):
+    out = tmp_path / "dc"
+    code, cap = run_cli(["evaluate", "--policy", "flat", "--grid", "flat", "--episodes", "1", "--episode-s", "1",
+                         "--motor", "dcmotor", "--out", str(out), "--no-progress", "--no-plots"], capsys)
+    assert code == 0, cap.err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["config"]["robot"]["motor"] == "dcmotor" and summary["machine"]["cores"] >= 1

@@ -134,3 +134,45 @@ def test_joint_stop_softer_than_the_physics_step_allows_is_refused():
     bad = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, joint_stop_timeconst_s=0.005))
     with pytest.raises(ValueError, match="twice the step"):
         build_world(make_cell(0, 0, bad.terrain), bad, ContextConfig(), 0)
+
+
+@pytest.fixture(scope="module")
+def dc_world():
+    cfg = BenchmarkConfig()
+    cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor="dcmotor"))
+    return build_world(make_cell(0, 0, cfg.terrain), cfg, ContextConfig(), 0)
+
+
+def test_dc_motors_stand_like_the_ideal_ones_and_stop_at_the_rated_speed(dc_world):
+    """RobotConfig(motor="dcmotor"): the same PD stance (torque is delivered exactly below the
+    voltage limit), the domain randomiser's gain slots are the controller's kp and kd, and a
+    saturated motor turning a leg in the air settles at the rated 21 rad/s (the ideal servo
+    does not slow down)."""
+    from selfright.env.randomization import DCMOTOR_KD, DCMOTOR_KP, ModelRandomizer
+
+    m = dc_world.model
+    assert np.allclose(m.actuator_gainprm[:, DCMOTOR_KP], 50.0) and np.allclose(m.actuator_gainprm[:, DCMOTOR_KD], 1.0)
+    r = ModelRandomizer(m, ROBOT)
+    assert r.dcmotor and np.allclose(r.apply(m, 1.0, 1.0, 1.2, 0.5).actuator_gainprm[:, DCMOTOR_KP], 60.0)
+    qpos = np.concatenate([[0, 0, 0.37, 1, 0, 0, 0], ROBOT.stand_pose])
+    d, _ = _run(dc_world, qpos, ROBOT.stand_pose, 800)
+    assert d.qpos[2] > 0.32 and np.abs(d.qvel).max() < 0.05
+    for world, fast in ((dc_world, False), (_ideal(), True)):
+        mm = world.model
+        dd = mujoco.MjData(mm)
+        dd.qpos[:] = mm.qpos0
+        dd.qpos[7:] = ROBOT.stand_pose
+        dd.ctrl[:] = ROBOT.stand_pose
+        dd.ctrl[1] = 3.5  # the FR hip swings its leg back through 2.9 rad in the air
+        top = 0.0
+        for _ in range(100):
+            dd.qpos[:7] = [0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0]
+            dd.qvel[:6] = 0.0
+            mujoco.mj_step(mm, dd)
+            top = max(top, abs(dd.qvel[7]))
+        assert (top > 40.0) if fast else (top < ROBOT.rated_joint_speed), top
+
+
+def _ideal():
+    cfg = BenchmarkConfig()
+    return build_world(make_cell(0, 0, cfg.terrain), cfg, ContextConfig(), 0)

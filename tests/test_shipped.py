@@ -98,3 +98,10 @@ def test_a_remeasured_card_states_the_new_number_and_keeps_the_old():
     assert "--seed 3`" in new and new.startswith(card.split(SUCCESS_PREFIX)[0])
     with pytest.raises(ValueError, match="not the shipped"):
         remeasured_card(card, "flat", {**summary, "policy": "rough"}, "a change")
+
+
+def test_a_card_names_a_motor_model_other_than_the_default():
+    from selfright.train.ship import motor_lines
+
+    assert motor_lines({}) == [] and motor_lines({"benchmark_config": {"robot": {"motor": "ideal"}}}) == []
+    assert "--motor dcmotor" in motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor"}}})[0]

@@ -10,7 +10,7 @@ from typing import Literal
 
 import tyro
 
-from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, SimConfig
+from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, RobotConfig, SimConfig
 
 Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
 
@@ -39,12 +39,14 @@ class _Episodes:
     """Episode limit after settling (s)."""
     action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
+    motor: Literal["ideal", "dcmotor"] = "ideal"
+    """Motor model: ideal (full torque at any speed, the benchmark's default) or dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; not what the shipped policies trained with)."""
 
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(
             threads=self.threads, batch_size=batch_size, friction=self.friction, wall_gap_ratio=self.wall_gap_ratio,
             ground_timeconst_s=self.ground_timeconst, hold_s=self.hold_s, episode_s=self.episode_s,
-            action_reference=self.action_reference,
+            action_reference=self.action_reference, motor=self.motor,
         )
 
 
@@ -125,11 +127,12 @@ class BenchSim:
     """Physics threads (0 = one per core)."""
 
 
-def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: str = "stand", **eval_kw) -> BenchmarkConfig:
+def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: str = "stand", motor: str = "ideal",
+                      **eval_kw) -> BenchmarkConfig:
     goal = {k: eval_kw.pop(k) for k in ("hold_s", "episode_s") if k in eval_kw}
     return BenchmarkConfig(
         sim=SimConfig(threads=threads), eval=EvalConfig(batch_size=batch_size, **eval_kw), goal=GoalConfig(**goal),
-        action=ActionConfig(reference=action_reference),
+        action=ActionConfig(reference=action_reference), robot=RobotConfig(motor=motor),
     )
 
 

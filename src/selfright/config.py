@@ -61,6 +61,14 @@ class RobotConfig:
     """PD stiffness of every joint (N·m/rad)."""
     kd: float = 1.0
     """PD damping of every joint (N·m·s/rad)."""
+    motor: Literal["ideal", "dcmotor"] = "ideal"
+    """Motor model of the PD servos. ``ideal``: full torque (±33.5 N·m on the A1) at any speed,
+    the benchmark's default, under which every shipped policy was trained. ``dcmotor``: MuJoCo's
+    DC-motor actuator run as a current-controlled driver (``input="pos"``, torque-space PD gains
+    ``kp``, ``kd``) whose drive voltage saturates, so the torque it can give falls linearly to 0
+    at the motors' rated speed (``RobotSpec.rated_joint_speed``, 21 rad/s on the A1), as on the
+    real robot. The shipped policies rely on faster joints: with ``dcmotor`` they score far
+    lower (docs/training.md, *A DC-motor model*). Opt-in; the CPU engine only."""
     joint_stop_timeconst_s: float = 0.01
     """Stiffness of the joints' hard stops: MuJoCo's joint-limit ``solreflimit`` time constant
     (s); smaller = stiffer, at least 2 × ``SimConfig.timestep_s`` (MuJoCo's stable minimum).

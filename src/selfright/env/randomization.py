@@ -54,12 +54,19 @@ def sample_factors(k: int, cfg: RandomizationConfig, rng: np.random.Generator) -
     )
 
 
+DCMOTOR_KP, DCMOTOR_KD = 4, 6
+"""Where MuJoCo's ``dcmotor`` actuator keeps its controller's torque-space kp and kd in
+``gainprm`` (after resistance and motor constant; ``tests/test_model.py`` checks it)."""
+
+
 class ModelRandomizer:
     """Writes episode factors into copies of a world's model.
 
     MuJoCo ids are looked up by name once, here: the terrain geom, the robot's bodies (the
     trunk's subtree) and the PD actuators (position servos: force = kp·(target − q) − kd·q̇,
-    i.e. ``gainprm[0] = kp``, ``biasprm[1] = −kp``, ``biasprm[2] = −kd``).
+    i.e. ``gainprm[0] = kp``, ``biasprm[1] = −kp``, ``biasprm[2] = −kd``; or, with
+    ``RobotConfig.motor = "dcmotor"``, the DC motors' controller gains ``gainprm[DCMOTOR_KP]``,
+    ``gainprm[DCMOTOR_KD]``).
     """
 
     def __init__(self, template: mujoco.MjModel, robot: RobotSpec):
@@ -67,6 +74,7 @@ class ModelRandomizer:
         trunk = template.body(robot.trunk_body).id
         self.bodies = np.array([b for b in range(template.nbody) if _in_subtree(template, b, trunk)])
         self.actuators = np.array([template.actuator(j.removesuffix("_joint")).id for j in robot.joint_names])
+        self.dcmotor = bool(np.all(template.actuator_gaintype[self.actuators] == mujoco.mjtGain.mjGAIN_DCMOTOR))
 
     def apply(self, base: mujoco.MjModel, friction: float, mass: float, kp: float, kd: float) -> mujoco.MjModel:
         """A copy of ``base`` with the ground friction set and masses, inertias, Kp, Kd scaled."""
@@ -75,6 +83,10 @@ class ModelRandomizer:
         m.body_mass[self.bodies] = base.body_mass[self.bodies] * mass
         m.body_inertia[self.bodies] = base.body_inertia[self.bodies] * mass
         a = self.actuators
+        if self.dcmotor:  # the controller's torque-space gains
+            m.actuator_gainprm[a, DCMOTOR_KP] = base.actuator_gainprm[a, DCMOTOR_KP] * kp
+            m.actuator_gainprm[a, DCMOTOR_KD] = base.actuator_gainprm[a, DCMOTOR_KD] * kd
+            return m
         m.actuator_gainprm[a, 0] = base.actuator_gainprm[a, 0] * kp
         m.actuator_biasprm[a, 1] = base.actuator_biasprm[a, 1] * kp
         m.actuator_biasprm[a, 2] = base.actuator_biasprm[a, 2] * kd

@@ -47,15 +47,25 @@ def _leg_xml(leg: str) -> str:
       </body>"""
 
 
-def a1_mjcf(kp: float, kd: float, stop_timeconst_s: float = STOP_TIMECONST_S) -> str:
+RATED_SPEED = 21.0  # published maximum joint speed of the motors (rad/s)
+DRIVE_VOLTAGE = 24.0  # nominal drive voltage of the DC-motor model (V); only K and R depend on it
+
+
+def a1_mjcf(kp: float, kd: float, stop_timeconst_s: float = STOP_TIMECONST_S, motor: str = "ideal") -> str:
     """MJCF text of the A1 alone, PD position servos with gains ``kp`` (N·m/rad), ``kd`` (N·m·s/rad),
-    joint stops of ``solreflimit`` time constant ``stop_timeconst_s`` (s)."""
+    joint stops of ``solreflimit`` time constant ``stop_timeconst_s`` (s). ``motor``: ``ideal``
+    (MuJoCo position servos, full torque at any speed) or ``dcmotor`` (a current-controlled DC
+    motor whose voltage saturates: stall torque ``TORQUE_LIMIT``, no-load speed ``RATED_SPEED``)."""
     legs = "".join(_leg_xml(leg) for leg in LEGS)
-    actuators = "\n".join(
-        f'    <position name="{leg}_{j}" joint="{leg}_{j}_joint" class="pd"/>'
-        for leg in LEGS
-        for j in ("hip", "thigh", "calf")
-    )
+    if motor == "ideal":
+        servo = '<position name="{name}" joint="{name}_joint" class="pd"/>'
+    elif motor == "dcmotor":
+        v = DRIVE_VOLTAGE
+        servo = (f'<dcmotor name="{{name}}" joint="{{name}}_joint" nominal="{v} {TORQUE_LIMIT} {RATED_SPEED}" '
+                 f'saturation="{TORQUE_LIMIT} 0 0" input="pos" controller="{kp} 0 {kd} 0 0 {v}"/>')
+    else:
+        raise ValueError(f"unknown motor model {motor!r}; choose ideal or dcmotor")
+    actuators = "\n".join("    " + servo.format(name=f"{leg}_{j}") for leg in LEGS for j in ("hip", "thigh", "calf"))
     return f"""<mujoco model="unitree_a1">
   <compiler angle="radian" autolimits="true"/>
   <default>
@@ -116,7 +126,7 @@ A1 = RobotSpec(
     stand_height_m=0.35,
     body_length_m=0.5,
     torque_limit=TORQUE_LIMIT,
-    rated_joint_speed=21.0,
+    rated_joint_speed=RATED_SPEED,
     mjcf=a1_mjcf,
     # The abduction joint turns about x, so mirroring y flips its angle; hip and knee turn
     # about y and keep theirs. The model is mirror-symmetric up to the trunk's 4 mm COM offset

@@ -47,13 +47,14 @@ class RobotSpec:
     torque_limit: float
     """Motor torque limit (N·m)."""
     rated_joint_speed: float | None = None
-    """Published maximum joint speed of the motors (rad/s). Not enforced by the model (its
-    motors give full torque at any speed); ``scripts/joint_stops.py`` reports how often
-    policies exceed it. None: not published."""
+    """Published maximum joint speed of the motors (rad/s). Enforced only by the opt-in
+    ``RobotConfig.motor = "dcmotor"`` (the default motors give full torque at any speed);
+    ``scripts/joint_stops.py`` reports how often policies exceed it. None: not published."""
     mjcf: Callable[..., str]
-    """``mjcf(kp, kd, stop_timeconst_s=...)`` -> MJCF text of the robot alone (a ``<mujoco>``
-    document), PD gains ``kp``, ``kd`` and hard joint stops of that ``solreflimit`` time
-    constant (s; ``RobotConfig.joint_stop_timeconst_s``)."""
+    """``mjcf(kp, kd, stop_timeconst_s=..., motor=...)`` -> MJCF text of the robot alone (a
+    ``<mujoco>`` document), PD gains ``kp``, ``kd``, hard joint stops of that ``solreflimit``
+    time constant (s; ``RobotConfig.joint_stop_timeconst_s``) and, where the robot supports it,
+    another motor model than ``ideal`` (``RobotConfig.motor``)."""
     tall_pose: np.ndarray | None = None
     """Standing joint angles with straighter legs than ``stand_pose`` (rad), the action
     reference of ``ActionConfig.reference="tall"``; None: the robot has none."""

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from selfright.config import ActionConfig, BenchmarkConfig
+from selfright.config import ActionConfig, BenchmarkConfig, RobotConfig
 from selfright.train.config import Context, Role, TrainConfig
 
 if TYPE_CHECKING:
@@ -55,6 +55,9 @@ class TrainArgs:
     """Joint targets = the standing pose (stand), a taller standing pose (tall) or the current
     angles (current) + 0.5 rad × action; recorded in the checkpoints (evaluate with the same
     --action-reference)."""
+    motor: Literal["ideal", "dcmotor"] = "ideal"
+    """Motor model (``RobotConfig.motor``): ideal servos (the benchmark's default) or DC motors
+    whose torque falls to 0 at the rated joint speed; evaluate with the same ``--motor``."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
@@ -89,7 +92,8 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         torch_threads=args.torch_threads,
         device=args.device,
         train=args.train,
-        bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference)),
+        bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
+                                       robot=RobotConfig(motor=args.motor)),
     )
     return run_training(spec)
 

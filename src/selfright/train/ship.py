@@ -179,6 +179,7 @@ def model_card(
         + _budget("before that, its initialisation", None if ppo_student else meta.get("init_from")),
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
+        *motor_lines(meta),
         f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
@@ -195,6 +196,14 @@ def model_card(
     if notes:
         lines += ["## Notes", "", notes, ""]
     return "\n".join(lines)
+
+
+def motor_lines(meta: dict[str, Any]) -> list[str]:
+    """A card line naming the motor model when it is not the benchmark's default ``ideal``."""
+    motor = ((meta.get("benchmark_config") or {}).get("robot") or {}).get("motor", "ideal")
+    if motor == "ideal":
+        return []
+    return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`)"]
 
 
 SUCCESS_PREFIX = "- **Success in its context**"
