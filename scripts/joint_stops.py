@@ -7,8 +7,9 @@ published rated speed (the model's motors give full torque at any speed).
 
 Since 2026-12-04 the stops are stiff (``RobotConfig.joint_stop_timeconst_s`` 0.01 s); with
 MuJoCo's default 0.02 s, 89 % of these episodes took an abduction joint more than 0.1 rad past
-its stop (22 % now). Joint speeds are not limited: every episode of the shipped ``incline``
-turns some joint faster than the A1's rated 21 rad/s (README, *What the benchmark measures*).
+its stop (22 % now). With the default ideal servos every episode of the shipped ``incline``
+turns some joint faster than the A1's rated 21 rad/s; ``--motor dcmotor`` models the motors'
+torque falling to 0 at that speed (README, *What the benchmark measures*).
 """
 
 from __future__ import annotations

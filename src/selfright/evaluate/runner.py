@@ -10,7 +10,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, Iterator, Literal
 
 import numpy as np
 import torch
@@ -157,6 +157,8 @@ class ReplayArgs:
     """Episodes per cell."""
     seed: int = 0
     """Run seed (same episodes as ``selfright evaluate --seed``)."""
+    motor: Literal["ideal", "dcmotor"] = "ideal"
+    """Motor model (``RobotConfig.motor``): ``ideal`` or ``dcmotor``."""
     tile_size_m: float | None = None
     """Side of each cell's tile (m); ``None`` = the benchmark's (8 m). Same drop square and
     falls on a larger tile: episodes that roll far keep going instead of failing at the edge
@@ -210,8 +212,10 @@ class ReplayArgs:
         return out
 
     def bench_config(self) -> BenchmarkConfig:
-        """The benchmark's configuration, with ``tile_size_m`` if given."""
+        """The benchmark's configuration, with ``tile_size_m`` and ``motor`` if given."""
         cfg = BenchmarkConfig()
+        if self.motor != cfg.robot.motor:
+            cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor=self.motor))
         if self.tile_size_m is None:
             return cfg
         return dataclasses.replace(cfg, terrain=dataclasses.replace(cfg.terrain, tile_size_m=self.tile_size_m))
