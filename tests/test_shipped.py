@@ -98,6 +98,8 @@ def test_a_remeasured_card_states_the_new_number_and_keeps_the_old():
     assert "--seed 3`" in new and new.startswith(card.split(SUCCESS_PREFIX)[0])
     with pytest.raises(ValueError, match="not the shipped"):
         remeasured_card(card, "flat", {**summary, "policy": "rough"}, "a change")
+    dc = remeasured_card(card, "flat", {**summary, "config": {"robot": {"motor": "dcmotor"}}}, "a change")
+    assert "--seed 3 --motor dcmotor`" in dc
 
 
 def test_a_card_names_a_motor_model_other_than_the_default():
