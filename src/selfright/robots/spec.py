@@ -51,10 +51,10 @@ class RobotSpec:
     ``RobotConfig.motor = "dcmotor"`` (the default motors give full torque at any speed);
     ``scripts/joint_stops.py`` reports how often policies exceed it. None: not published."""
     mjcf: Callable[..., str]
-    """``mjcf(kp, kd, stop_timeconst_s=..., motor=...)`` -> MJCF text of the robot alone (a
+    """``mjcf(kp, kd, stop_timeconst_s=..., motor="ideal")`` -> MJCF text of the robot alone (a
     ``<mujoco>`` document), PD gains ``kp``, ``kd``, hard joint stops of that ``solreflimit``
-    time constant (s; ``RobotConfig.joint_stop_timeconst_s``) and, where the robot supports it,
-    another motor model than ``ideal`` (``RobotConfig.motor``)."""
+    time constant (s; ``RobotConfig.joint_stop_timeconst_s``) and motor model ``motor``
+    (``RobotConfig.motor``; a robot without a given model raises ``ValueError``)."""
     tall_pose: np.ndarray | None = None
     """Standing joint angles with straighter legs than ``stand_pose`` (rad), the action
     reference of ``ActionConfig.reference="tall"``; None: the robot has none."""

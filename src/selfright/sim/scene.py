@@ -76,8 +76,7 @@ def scene_mjcf(robot: RobotSpec, tile: Tile, ctx: ContextConfig, robot_cfg: Robo
             f"joint_stop_timeconst_s {robot_cfg.joint_stop_timeconst_s} s is under 2 × the {sim.timestep_s} s "
             "physics step, which MuJoCo would silently raise; use at least twice the step"
         )
-    extra = {} if robot_cfg.motor == "ideal" else {"motor": robot_cfg.motor}
-    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, **extra)
+    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, robot_cfg.motor)
     inner = re.search(r"<mujoco[^>]*>(.*)</mujoco>", body, re.S)
     assert inner is not None
     robot_xml = inner.group(1)

@@ -387,7 +387,7 @@ class TrainingRun:
             offset = reference_offset(robot, mapping, s.bench.action)
             rescue = dict(rescue=net.to(s.device).eval(), rescue_group=student_group(net.meta.obs_history),
                           rescue_switch=StallSwitch(round(d.stall_s / dt), round(d.rescue_s / dt), None, robot.num_joints),
-                          rescue_offset=None if offset is None else torch.as_tensor(offset, dtype=torch.float32))
+                          rescue_offset=offset)
         teacher = StanceTeacher(base, student_group(d.student_history), s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
                                 weight=d.stance_weight, **rescue)

@@ -18,6 +18,7 @@ the `flat` student at evaluation gets up from more falls (docs/training.md, *Har
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -36,7 +37,7 @@ class StanceTeacher(nn.Module):
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
                  ramp_steps: int, target: torch.Tensor, weight: float = 1.0, rescue: ActorMLP | None = None,
                  rescue_group: str = "student", rescue_switch: StallSwitch | None = None,
-                 rescue_offset: torch.Tensor | None = None):
+                 rescue_offset: torch.Tensor | np.ndarray | None = None):
         """``rescue`` (reading ``rescue_group``) labels where ``rescue_switch`` hands over; its
         actions are shifted by ``rescue_offset`` (J,) (its reference pose − the base's, in action
         units; None when they share one) into the base's units."""
