@@ -20,7 +20,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from selfright.policies.reference import in_own_units
+from selfright.policies.reference import ReferenceShift
 from selfright.policies.stall import ScanSwitch, StallSwitch, TiltSwitch
 
 
@@ -40,9 +40,7 @@ class FallbackTeacher(nn.Module):
         super().__init__()
         self.primary, self.fallback, self.switch = primary, fallback, switch
         self.slots = torch.arange(num_envs)
-        self.offset = None if fallback_offset is None else torch.as_tensor(fallback_offset, dtype=torch.float32)
-        self.fresh = torch.ones(num_envs, dtype=torch.bool)
-        """Envs whose episode has not taken a step yet (their previous action reads 0 in any units)."""
+        self.shift = ReferenceShift(fallback_offset, num_envs)
 
     def forward(self, obs) -> torch.Tensor:
         x = obs["teacher"]
@@ -50,17 +48,17 @@ class FallbackTeacher(nn.Module):
         return torch.where(use[:, None], self._fallback_action(obs), self.primary(obs))
 
     def _fallback_action(self, obs) -> torch.Tensor:
-        if self.offset is None:
+        if self.shift.offset is None:
             return self.fallback(obs)
         shifted = obs.clone()
-        shifted["teacher"] = in_own_units(obs["teacher"], self.offset, ~self.fresh)
-        self.fresh[:] = False
-        return self.fallback(shifted) + self.offset.to(shifted["teacher"].device)
+        shifted["teacher"] = self.shift.obs(obs["teacher"])
+        self.shift.stepped()
+        return self.shift.action(self.fallback(shifted))
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:
             self.switch.reset(dones.bool().cpu())
-            self.fresh |= dones.bool().cpu()
+            self.shift.reset(dones.bool().cpu())
         if isinstance(self.primary, FallbackTeacher):  # a nested composite (``rough_teacher``)
             self.primary.reset(dones)
 

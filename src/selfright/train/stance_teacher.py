@@ -24,7 +24,7 @@ from torch import nn
 
 from selfright.policies.actor import ActorMLP
 from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
-from selfright.policies.reference import in_own_units
+from selfright.policies.reference import ReferenceShift
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
 
@@ -45,9 +45,7 @@ class StanceTeacher(nn.Module):
         if (rescue is None) != (rescue_switch is None):
             raise ValueError("a rescue student needs its hand-over rule, and the rule a rescue student")
         self.rescue, self.rescue_group, self.rescue_switch = rescue, rescue_group, rescue_switch
-        self.rescue_offset = None if rescue_offset is None else torch.as_tensor(rescue_offset, dtype=torch.float32)
-        self.fresh = torch.ones(num_envs, dtype=torch.bool)
-        """Envs whose episode has not taken a step yet (their previous action reads 0 in any units)."""
+        self.rescue_shift = ReferenceShift(rescue_offset, num_envs)
         if ramp_steps < 1 or delay_steps < 0:
             raise ValueError(f"the stance needs a ramp of at least one step and a delay ≥ 0, got {ramp_steps}, {delay_steps}")
         self.base, self.group = base, group
@@ -67,22 +65,17 @@ class StanceTeacher(nn.Module):
         if self.rescue is not None:
             use = self.rescue_switch.step(x, torch.arange(x.shape[0])).to(labels.device)
             if use.any():
-                labels = torch.where(use[:, None], self._rescue_action(obs[self.rescue_group]), labels)
-            self.fresh = torch.zeros_like(self.fresh)
+                rescued = self.rescue_shift.action(self.rescue(self.rescue_shift.obs(obs[self.rescue_group])))
+                labels = torch.where(use[:, None], rescued, labels)
+            self.rescue_shift.stepped()
         return labels
-
-    def _rescue_action(self, x: torch.Tensor) -> torch.Tensor:
-        if self.rescue_offset is None:
-            return self.rescue(x)
-        offset = self.rescue_offset.to(x.device)
-        return self.rescue(in_own_units(x, offset, ~self.fresh)) + offset
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:
             # out of place: the count may have been made under rsl_rl's inference mode
             done = dones.reshape(-1).bool().cpu()
             self.count = self.count.masked_fill(done, 0.0)
-            self.fresh = self.fresh | done
+            self.rescue_shift.reset(done)
             if self.rescue_switch is not None:
                 self.rescue_switch.reset(done)
 

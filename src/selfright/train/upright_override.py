@@ -33,7 +33,7 @@ import torch
 
 from selfright.config import ActionConfig
 from selfright.policies.actor import ActorMLP
-from selfright.policies.reference import in_own_units, reference_offset
+from selfright.policies.reference import ReferenceShift, reference_offset
 from selfright.policies.stall import TiltSwitch
 from selfright.robots import RobotSpec
 from selfright.train.commands import load_checkpoint_actor
@@ -60,9 +60,7 @@ class UprightOverride:
         self.actor = actor.eval()
         self.acts_when = acts_when
         self.switch = TiltSwitch(tilt_deg)
-        self.offset = offset
-        self.fresh = torch.ones(num_envs, dtype=torch.bool)
-        """Slots whose episode has not taken a step yet (their previous action reads 0 in any units)."""
+        self.shift = ReferenceShift(offset, num_envs)
         self.overridden = torch.zeros(num_envs, dtype=torch.bool)
         """Slots overridden at the latest step (what ``selfright.train.override_mask`` records)."""
 
@@ -74,12 +72,8 @@ class UprightOverride:
         rows = tilted if self.acts_when == "tilted" else ~tilted
         out = actions.detach().cpu().clone()
         if rows.any():
-            xu = x[rows]
-            if self.offset is not None:
-                xu = in_own_units(xu, self.offset, ~self.fresh[rows])
-            a = self.actor(xu)
-            out[rows] = a if self.offset is None else a + self.offset
-        self.fresh[:] = False
+            out[rows] = self.shift.action(self.actor(self.shift.obs(x[rows], rows)))
+        self.shift.stepped()
         self.overridden = rows
         return out
 
@@ -90,7 +84,7 @@ class UprightOverride:
 
     def reset(self, ids: torch.Tensor) -> None:
         """Slots ``ids`` start new episodes."""
-        self.fresh[ids] = True
+        self.shift.reset(ids)
 
 
 def load_upright_override(
