@@ -158,19 +158,37 @@ def test_dc_motors_stand_like_the_ideal_ones_and_stop_at_the_rated_speed(dc_worl
     d, _ = _run(dc_world, qpos, ROBOT.stand_pose, 800)
     assert d.qpos[2] > 0.32 and np.abs(d.qvel).max() < 0.05
     for world, fast in ((dc_world, False), (_ideal(), True)):
-        mm = world.model
-        dd = mujoco.MjData(mm)
-        dd.qpos[:] = mm.qpos0
-        dd.qpos[7:] = ROBOT.stand_pose
-        dd.ctrl[:] = ROBOT.stand_pose
-        dd.ctrl[1] = 3.5  # the FR hip swings its leg back through 2.9 rad in the air
-        top = 0.0
-        for _ in range(100):
-            dd.qpos[:7] = [0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0]
-            dd.qvel[:6] = 0.0
-            mujoco.mj_step(mm, dd)
-            top = max(top, abs(dd.qvel[7]))
+        top = _top_swing_speed(world.model)
         assert (top > 40.0) if fast else (top < ROBOT.rated_joint_speed), top
+
+
+def _top_swing_speed(mm: mujoco.MjModel) -> float:
+    """Fastest FR hip speed (rad/s) while the motor swings its leg back through 2.9 rad with
+    the trunk held in the air."""
+    dd = mujoco.MjData(mm)
+    dd.qpos[:] = mm.qpos0
+    dd.qpos[7:] = ROBOT.stand_pose
+    dd.ctrl[:] = ROBOT.stand_pose
+    dd.ctrl[1] = 3.5
+    top = 0.0
+    for _ in range(100):
+        dd.qpos[:7] = [0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0]
+        dd.qvel[:6] = 0.0
+        mujoco.mj_step(mm, dd)
+        top = max(top, abs(dd.qvel[7]))
+    return top
+
+
+def test_a_faster_dc_motor_turns_faster_and_a_speed_needs_dc_motors():
+    """RobotConfig.motor_speed_rad_s moves the DC motors' zero-torque speed (a curriculum from
+    the A1's motors toward the ideal servos); it is refused for the ideal servos."""
+    cfg = BenchmarkConfig()
+    fast = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor="dcmotor", motor_speed_rad_s=40.0))
+    top = _top_swing_speed(build_world(make_cell(0, 0, fast.terrain), fast, ContextConfig(), 0).model)
+    assert ROBOT.rated_joint_speed + 5 < top < 40.0, top
+    bad = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor_speed_rad_s=40.0))
+    with pytest.raises(ValueError, match="needs motor='dcmotor'"):
+        build_world(make_cell(0, 0, bad.terrain), bad, ContextConfig(), 0)
 
 
 def _ideal():

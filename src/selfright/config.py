@@ -69,6 +69,11 @@ class RobotConfig:
     at the motors' rated speed (``RobotSpec.rated_joint_speed``, 21 rad/s on the A1), as on the
     real robot. The shipped policies rely on faster joints: with ``dcmotor`` they score far
     lower (docs/training.md, *A DC-motor model*). Opt-in; the CPU engine only."""
+    motor_speed_rad_s: float | None = None
+    """``dcmotor`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
+    robot's rated speed (``RobotSpec.rated_joint_speed``). Faster than the real motors, it moves
+    the model toward the ideal servos (a curriculum from one to the other; docs/training.md,
+    *The incline under DC motors*)."""
     joint_stop_timeconst_s: float = 0.01
     """Stiffness of the joints' hard stops: MuJoCo's joint-limit ``solreflimit`` time constant
     (s); smaller = stiffer, at least 2 × ``SimConfig.timestep_s`` (MuJoCo's stable minimum).

@@ -51,17 +51,21 @@ RATED_SPEED = 21.0  # published maximum joint speed of the motors (rad/s)
 DRIVE_VOLTAGE = 24.0  # nominal drive voltage of the DC-motor model (V); only K and R depend on it
 
 
-def a1_mjcf(kp: float, kd: float, stop_timeconst_s: float = STOP_TIMECONST_S, motor: str = "ideal") -> str:
+def a1_mjcf(kp: float, kd: float, stop_timeconst_s: float = STOP_TIMECONST_S, motor: str = "ideal",
+            motor_speed: float | None = None) -> str:
     """MJCF text of the A1 alone, PD position servos with gains ``kp`` (N·m/rad), ``kd`` (N·m·s/rad),
     joint stops of ``solreflimit`` time constant ``stop_timeconst_s`` (s). ``motor``: ``ideal``
     (MuJoCo position servos, full torque at any speed) or ``dcmotor`` (a current-controlled DC
-    motor whose voltage saturates: stall torque ``TORQUE_LIMIT``, no-load speed ``RATED_SPEED``)."""
+    motor whose voltage saturates: stall torque ``TORQUE_LIMIT``, no-load speed ``motor_speed``,
+    by default the A1's ``RATED_SPEED``)."""
+    if motor_speed is not None and (motor != "dcmotor" or motor_speed <= 0):
+        raise ValueError(f"a motor speed ({motor_speed} rad/s) needs motor='dcmotor' and a positive value")
     legs = "".join(_leg_xml(leg) for leg in LEGS)
     if motor == "ideal":
         servo = '<position name="{name}" joint="{name}_joint" class="pd"/>'
     elif motor == "dcmotor":
         v = DRIVE_VOLTAGE
-        servo = (f'<dcmotor name="{{name}}" joint="{{name}}_joint" nominal="{v} {TORQUE_LIMIT} {RATED_SPEED}" '
+        servo = (f'<dcmotor name="{{name}}" joint="{{name}}_joint" nominal="{v} {TORQUE_LIMIT} {motor_speed or RATED_SPEED}" '
                  f'saturation="{TORQUE_LIMIT} 0 0" input="pos" controller="{kp} 0 {kd} 0 0 {v}"/>')
     else:
         raise ValueError(f"unknown motor model {motor!r}; choose ideal or dcmotor")

@@ -54,7 +54,8 @@ class RobotSpec:
     """``mjcf(kp, kd, stop_timeconst_s=..., motor="ideal")`` -> MJCF text of the robot alone (a
     ``<mujoco>`` document), PD gains ``kp``, ``kd``, hard joint stops of that ``solreflimit``
     time constant (s; ``RobotConfig.joint_stop_timeconst_s``) and motor model ``motor``
-    (``RobotConfig.motor``; a robot without a given model raises ``ValueError``)."""
+    (``RobotConfig.motor``; a robot without a given model raises ``ValueError``); with
+    ``motor_speed=`` (rad/s; ``RobotConfig.motor_speed_rad_s``) the DC motor's no-load speed."""
     tall_pose: np.ndarray | None = None
     """Standing joint angles with straighter legs than ``stand_pose`` (rad), the action
     reference of ``ActionConfig.reference="tall"``; None: the robot has none."""

@@ -58,6 +58,9 @@ class TrainArgs:
     motor: Literal["ideal", "dcmotor"] = "ideal"
     """Motor model (``RobotConfig.motor``): ideal servos (the benchmark's default) or DC motors
     whose torque falls to 0 at the rated joint speed; evaluate with the same ``--motor``."""
+    motor_speed_rad_s: float | None = None
+    """With ``--motor dcmotor``: the speed (rad/s) at which the torque falls to 0; None = the
+    robot's rated speed (21 rad/s on the A1). Faster values approach the ideal servos."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
@@ -93,7 +96,8 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         device=args.device,
         train=args.train,
         bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
-                                       robot=RobotConfig(motor=args.motor)),
+                                       robot=RobotConfig(motor=args.motor,
+                                                         motor_speed_rad_s=args.motor_speed_rad_s)),
     )
     return run_training(spec)
 
