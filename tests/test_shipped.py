@@ -107,3 +107,5 @@ def test_a_card_names_a_motor_model_other_than_the_default():
 
     assert motor_lines({}) == [] and motor_lines({"benchmark_config": {"robot": {"motor": "ideal"}}}) == []
     assert "--motor dcmotor" in motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor"}}})[0]
+    fast = motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor", "motor_speed_rad_s": 30.0}}})[0]
+    assert "--motor dcmotor" in fast and "30 rad/s" in fast

@@ -200,10 +200,14 @@ def model_card(
 
 def motor_lines(meta: dict[str, Any]) -> list[str]:
     """A card line naming the motor model when it is not the benchmark's default ``ideal``."""
-    motor = ((meta.get("benchmark_config") or {}).get("robot") or {}).get("motor", "ideal")
+    robot = (meta.get("benchmark_config") or {}).get("robot") or {}
+    motor = robot.get("motor", "ideal")
     if motor == "ideal":
         return []
-    return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`)"]
+    speed = robot.get("motor_speed_rad_s")
+    trained = "" if speed is None else (f"; trained with their torque reaching 0 at {speed:g} rad/s, not the "
+                                        "robot's rated speed that `selfright evaluate` runs")
+    return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained})"]
 
 
 SUCCESS_PREFIX = "- **Success in its context**"
