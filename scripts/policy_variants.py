@@ -28,7 +28,7 @@ batching.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import tyro
@@ -114,6 +114,8 @@ class Args:
     """+1 or -1: act in the mirror image of the world unless the projected gravity's body y
     component has this sign when control starts, so that the ground falls away to the same
     side of the trunk in every episode (``selfright.policies.variants.SideMirrored``); 0 = off."""
+    threads: int = 0
+    """Physics worker threads; 0 = one per CPU core."""
     smooth_last: bool = False
     """With ``smooth``: low-pass only the last policy of a composite (the tilted one: the escape),
     which then sees every step (``feed_both``) so its filter runs on between hand-overs; off =
@@ -192,6 +194,7 @@ def estimated_first(teacher: str, student: str, cfg: BenchmarkConfig) -> Policy:
 
 def main(a: Args) -> None:
     cfg = BenchmarkConfig()
+    cfg = replace(cfg, sim=replace(cfg.sim, threads=a.threads))
     try:
         policy = make_variant(a, cfg)
     except ValueError as e:

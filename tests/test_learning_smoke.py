@@ -260,6 +260,24 @@ def test_policy_records_its_action_mapping(tmp_path: Path):
         assert load_policy_file(p).action_mapping == ("current", 0.5)
 
 
+def test_policy_records_its_motor_and_runs_in_the_dc_envelope_on_ideal_servos(tmp_path: Path):
+    """A policy trained with DC motors says so, in its file and in ONNX; on the ideal servos
+    it is wrapped in the DC torque envelope (unless asked not to), on DC motors it is not."""
+    from selfright.policies.registry import make_policy
+    from selfright.policies.torque_envelope import TorqueEnvelope
+
+    dc = dataclasses.replace(CFG, robot=dataclasses.replace(CFG.robot, motor="dcmotor"))
+    out = tmp_path / "dc"
+    run(spec(out, bench=dc))
+    assert make_policy(str(out), dc).trained_motor == ("dcmotor", 0.0)
+    assert not isinstance(make_policy(str(out), dc), TorqueEnvelope)
+    assert isinstance(make_policy(str(out), CFG), TorqueEnvelope)
+    assert not isinstance(make_policy(str(out), CFG, envelope=False), TorqueEnvelope)
+    onnx_path, policy_path = export(ExportArgs(checkpoint=out, onnx=tmp_path / "dc.onnx"))
+    for p in (onnx_path, policy_path):
+        assert load_policy_file(p).trained_motor == ("dcmotor", 0.0)
+
+
 def test_ship_checks_notes_before_writing(tmp_path: Path):
     out = tmp_path / "t"
     run(spec(out))

@@ -106,6 +106,7 @@ def test_a_card_names_a_motor_model_other_than_the_default():
     from selfright.train.ship import motor_lines
 
     assert motor_lines({}) == [] and motor_lines({"benchmark_config": {"robot": {"motor": "ideal"}}}) == []
-    assert "--motor dcmotor" in motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor"}}})[0]
+    line = motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor"}}})[0]
+    assert "--motor dcmotor" in line and "torque-speed envelope" in line
     fast = motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor", "motor_speed_rad_s": 30.0}}})[0]
     assert "--motor dcmotor" in fast and "30 rad/s" in fast

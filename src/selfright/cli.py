@@ -41,6 +41,8 @@ class _Episodes:
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
     motor: Literal["ideal", "dcmotor"] = "ideal"
     """Motor model: ideal (full torque at any speed, the benchmark's default) or dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; not what the shipped policies trained with)."""
+    torque_envelope: bool = True
+    """A policy trained with --motor dcmotor, run on the ideal servos, holds its commands to the DC motors' torque-speed envelope (selfright.policies.torque_envelope); --no-torque-envelope runs it unchanged."""
 
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(
@@ -144,7 +146,7 @@ def run_evaluate(a: Evaluate) -> None:
     if a.batch_size < 1:
         raise ValueError("--batch-size must be >= 1")
     out = a.out or Path("results") / f"{Path(a.policy).stem}_{a.grid}"
-    policy = make_policy(a.policy, cfg)
+    policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
         progress=a.progress,
@@ -167,7 +169,7 @@ def run_replay(a: Replay) -> None:
     out = a.out or Path("results") / (
         f"replay_{Path(a.policy).stem}_{a.grid}_{cell.slope_level}-{cell.roughness_level}_{a.episode}_s{a.seed}"
     )
-    policy = make_policy(a.policy, cfg)
+    policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     r = replay_episode(policy, cfg, cell, a.episode, a.seed)
     write_replay(out, r, {"policy": a.policy, "grid": a.grid, "seed": a.seed}, cfg)
     plot_trace(out)

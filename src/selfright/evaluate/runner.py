@@ -159,6 +159,9 @@ class ReplayArgs:
     """Run seed (same episodes as ``selfright evaluate --seed``)."""
     motor: Literal["ideal", "dcmotor"] = "ideal"
     """Motor model (``RobotConfig.motor``): ``ideal`` or ``dcmotor``."""
+    torque_envelope: bool = True
+    """A ``dcmotor``-trained policy on the ideal servos holds its commands to the DC envelope
+    (``selfright.policies.registry.fit_motor``); off = runs it unchanged."""
     tile_size_m: float | None = None
     """Side of each cell's tile (m); ``None`` = the benchmark's (8 m). Same drop square and
     falls on a larger tile: episodes that roll far keep going instead of failing at the edge
@@ -183,12 +186,13 @@ class ReplayArgs:
         """``policy``, or its composite with ``tilted_policy``, blended to the stance with ``stance_weight``."""
         from selfright.policies.registry import make_policy
 
-        policy = make_policy(self.policy, cfg)
+        policy = make_policy(self.policy, cfg, envelope=self.torque_envelope)
         if self.tilted_policy is not None:
             from selfright.policies.stall import TiltSwitch
             from selfright.policies.variants import Fallback
 
-            policy = Fallback(policy, make_policy(self.tilted_policy, cfg), TiltSwitch(self.tilt_deg))
+            policy = Fallback(policy, make_policy(self.tilted_policy, cfg, envelope=self.torque_envelope),
+                              TiltSwitch(self.tilt_deg))
         if self.stance_weight > 0:
             from selfright.config import RewardConfig
             from selfright.policies.pose_blend import stance_action

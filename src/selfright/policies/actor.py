@@ -91,6 +91,12 @@ class ActorMeta:
     estimator_dims: tuple[int, ...] = ()
     """Hidden widths of the velocity estimator between the normaliser and the MLP (its
     ``ESTIMATE_DIM`` outputs join the MLP's input); () = none."""
+    motor: str = ""
+    """Motor model it was trained with (``RobotConfig.motor``: ``ideal`` or ``dcmotor``); empty
+    if not recorded (files written before it was, all trained with ``ideal``)."""
+    motor_speed_rad_s: float = 0.0
+    """With ``motor`` ``dcmotor``: the no-load speed it was trained with (0 = the robot's rated
+    speed)."""
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -304,6 +310,8 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         obs_history=history,
         gru_dim=gru_dim,
         estimator_dims=estimator_dims,
+        motor=str(hint.get("motor", "")),
+        motor_speed_rad_s=float(hint.get("motor_speed_rad_s") or 0.0),
     )
     actor = ActorMLP(meta)
     state = OrderedDict((k, v) for k, v in sd.items() if k.startswith(("mlp.", "estimator.")))

@@ -145,7 +145,9 @@ def _load_torch(p: Path) -> Policy:
     actor = load_torch_actor(p)
     m = actor.meta
     mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
-    return TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history, m.gru_dim)
+    policy = TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history, m.gru_dim)
+    policy.trained_motor = (m.motor, m.motor_speed_rad_s) if m.motor else None
+    return policy
 
 
 def load_torch_actor(p: Path) -> ActorMLP:
@@ -204,7 +206,10 @@ def _load_onnx(p: Path) -> Policy:
         raise ValueError(f"ONNX policy {p}: cannot tell its observation group (no metadata, input size unknown)")
     ref, scale = _json_or_none(props.get("action_reference")), _json_or_none(props.get("action_scale_rad"))
     history = int(_json_or_none(props.get("obs_history")) or 1)
-    return OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None, history)
+    policy = OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None, history)
+    motor = _json_or_none(props.get("motor"))
+    policy.trained_motor = (str(motor), float(_json_or_none(props.get("motor_speed_rad_s")) or 0.0)) if motor else None
+    return policy
 
 
 # ------------------------------------------------------------------- helpers

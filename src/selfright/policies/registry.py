@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from selfright.config import ActionConfig, BenchmarkConfig
@@ -52,9 +53,29 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_
     return policy if offset is None else ShiftedReference(policy, offset, (action.reference, action.scale_rad))
 
 
-def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
-    """``_make_policy`` followed by ``check_action_mapping``."""
-    return check_action_mapping(_make_policy(name, cfg), cfg.action, name, cfg.robot.name)
+def fit_motor(policy: Policy, cfg: BenchmarkConfig) -> Policy:
+    """``policy`` (already in the env's action mapping) ready for the env's motor model: a
+    policy trained with ``dcmotor`` (``trained_motor``) run on the ``ideal`` servos holds its
+    commands to the DC motors' torque-speed envelope at the speed it trained with
+    (``TorqueEnvelope``); any other pairing runs unchanged."""
+    subs = getattr(policy, "policies", None)
+    if subs is not None:  # a multiplexer: each policy on its own
+        for key, sub in subs.items():
+            subs[key] = fit_motor(sub, cfg)
+        return policy
+    trained = policy.trained_motor
+    if trained is None or trained[0] != "dcmotor" or cfg.robot.motor != "ideal":
+        return policy
+    from selfright.policies.torque_envelope import TorqueEnvelope
+
+    robot_cfg = replace(cfg.robot, motor_speed_rad_s=trained[1] or None)
+    return TorqueEnvelope(policy, get_robot(cfg.robot.name), cfg.action, robot_cfg)
+
+
+def make_policy(name: str, cfg: BenchmarkConfig, envelope: bool = True) -> Policy:
+    """``_make_policy`` followed by ``check_action_mapping`` and (``envelope``) ``fit_motor``."""
+    policy = check_action_mapping(_make_policy(name, cfg), cfg.action, name, cfg.robot.name)
+    return fit_motor(policy, cfg) if envelope else policy
 
 
 def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:

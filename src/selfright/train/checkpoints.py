@@ -46,14 +46,18 @@ def read_meta(run_dir: Path) -> dict[str, Any]:
 def policy_hint(ckpt: Path, infos: dict[str, Any] | None) -> dict[str, Any]:
     """What an actor loaded from checkpoint ``ckpt`` should record besides its weights: the
     checkpoint's ``infos`` (else the run's ``policy`` entry), completed with the action mapping
-    of the run's ``benchmark_config`` for checkpoints written before it was recorded, and the
-    source path."""
+    of the run's ``benchmark_config`` for checkpoints written before it was recorded, the motor
+    model it trained with, and the source path."""
     meta = read_meta(ckpt.parent)
     hint = dict(infos or meta.get("policy") or {})
     action = (meta.get("benchmark_config") or {}).get("action") or {}
     if "action_reference" not in hint and "reference" in action:
         hint["action_reference"] = action["reference"]
         hint["action_scale_rad"] = action.get("scale_rad", 0.0)
+    robot = (meta.get("benchmark_config") or {}).get("robot") or {}
+    if "motor" not in hint and robot:
+        hint["motor"] = robot.get("motor", "ideal")
+        hint["motor_speed_rad_s"] = robot.get("motor_speed_rad_s") or 0.0
     hint.setdefault("source", str(ckpt))
     return hint
 

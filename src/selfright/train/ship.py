@@ -207,7 +207,9 @@ def motor_lines(meta: dict[str, Any]) -> list[str]:
     speed = robot.get("motor_speed_rad_s")
     trained = "" if speed is None else (f"; trained with their torque reaching 0 at {speed:g} rad/s, not the "
                                         "robot's rated speed that `selfright evaluate` runs")
-    return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained})"]
+    ideal = ("; on the benchmark's ideal servos `selfright evaluate` holds its commands to the DC torque-speed "
+             "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else "")
+    return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained}{ideal})"]
 
 
 SUCCESS_PREFIX = "- **Success in its context**"

@@ -1,0 +1,109 @@
+"""Running a policy trained on DC motors (``RobotConfig.motor = "dcmotor"``) on the ideal
+servos, by limiting its own commands to the DC motors' torque-speed envelope.
+
+A DC motor whose drive voltage saturates gives at joint speed ω a torque within
+[max(−τ_s, −τ_s (1 + ω/ω₀)), min(τ_s, τ_s (1 − ω/ω₀))] (stall torque τ_s, no-load speed ω₀):
+full torque at rest, none forward at ω₀, more than τ_s braking is clipped to τ_s. The ideal
+servo gives τ = clip(Kp (q* − q) − Kd q̇, ±τ_s) at any speed. ``TorqueEnvelope`` reads the
+sensed joint angles and speeds, works out the torque the policy's target would ask for,
+clips it to the envelope, and moves the target so that the servo asks exactly that torque
+at the start of the control step: q*' = q + (τ_clipped + Kd q̇) / Kp. Within the step the
+servo's torque then follows its PD law from there, so the envelope holds at 50 Hz, not at
+every physics step: an approximation of the DC motor that needs nothing a real robot lacks.
+The inner policy sees its own previous action, as it did in training (the motor never
+changed its targets).
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import torch
+
+from selfright.config import ActionConfig, RobotConfig
+from selfright.env.observations import JOINT_VEL_SCALE, joint_pos_columns, joint_vel_columns, prev_action_columns
+from selfright.policies.base import Policy
+from selfright.policies.slots import grown, slot_index
+from selfright.robots import RobotSpec
+
+
+def envelope_limits(qd: torch.Tensor, stall_torque: float, speed: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """(low, high) torque bounds (N·m) of a voltage-saturated DC motor at joint speeds ``qd``
+    (rad/s), stall torque ``stall_torque``, no-load speed ``speed`` (rad/s)."""
+    high = torch.clamp(stall_torque * (1.0 - qd / speed), max=stall_torque)
+    low = torch.clamp(-stall_torque * (1.0 + qd / speed), min=-stall_torque)
+    return low, high
+
+
+def enveloped_targets(target: torch.Tensor, q: torch.Tensor, qd: torch.Tensor, kp: float, kd: float,
+                      stall_torque: float, speed: float) -> torch.Tensor:
+    """Joint targets whose PD torque at (``q``, ``qd``) is that of ``target`` clipped to the DC
+    envelope (``envelope_limits``)."""
+    tau = kp * (target - q) - kd * qd
+    low, high = envelope_limits(qd, stall_torque, speed)
+    return q + (torch.minimum(torch.maximum(tau, low), high) + kd * qd) / kp
+
+
+class TorqueEnvelope(Policy):
+    """``inner`` (actions in the env's units) with each joint's commanded torque held to the
+    DC motors' torque-speed envelope (module docstring).
+
+    Args:
+        inner: the policy, already converted to the env's action mapping.
+        robot: the robot spec (nominal pose, joint range, stall torque, rated speed).
+        action: the env's action mapping (a fixed reference pose; ``current`` works too).
+        motor: the env's PD gains (``kp``, ``kd``) and, if set, the no-load speed
+            ``motor_speed_rad_s`` (default: the robot's rated speed).
+    """
+
+    def __init__(self, inner: Policy, robot: RobotSpec, action: ActionConfig, motor: RobotConfig):
+        speed = motor.motor_speed_rad_s or robot.rated_joint_speed
+        if not speed or speed <= 0:
+            raise ValueError(f"robot {robot.name!r} has no rated joint speed; give RobotConfig.motor_speed_rad_s")
+        self.inner, self.action = inner, action
+        self.kp, self.kd, self.speed, self.stall = motor.kp, motor.kd, float(speed), float(robot.torque_limit)
+        self.groups = tuple(sorted(set(inner.groups) | {"student"}))
+        self.action_mapping, self.trained_motor = inner.action_mapping, inner.trained_motor
+        self.digest = None if inner.digest is None else (
+            hashlib.sha256(f"{inner.digest}/dc-envelope/{self.speed:g}".encode()).hexdigest()[:16])
+        self.name = f"{inner.name} in a DC torque envelope ({self.speed:g} rad/s)"
+        J = len(robot.joint_names)
+        self.nominal = torch.as_tensor(robot.nominal_pose, dtype=torch.float32)
+        self.low = torch.as_tensor(robot.joint_low, dtype=torch.float32)
+        self.high = torch.as_tensor(robot.joint_high, dtype=torch.float32)
+        ref = robot.reference_pose(action.reference)
+        self.ref = None if ref is None else torch.as_tensor(ref, dtype=torch.float32)
+        self.cols = joint_pos_columns(J), joint_vel_columns(J), prev_action_columns(J)
+        self._last = torch.zeros(0, J)
+        self._fresh = torch.zeros(0, dtype=torch.bool)
+
+    def _slots(self, ids: np.ndarray) -> torch.Tensor:
+        t = slot_index(ids)
+        self._last, self._fresh = grown(self._last, t), grown(self._fresh, t, True)
+        return t
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.inner.reset(ids, seeds)
+        t = self._slots(ids)
+        self._fresh[t] = True
+
+    @torch.no_grad()
+    def act(self, obs, ids, contexts):
+        t = self._slots(ids)
+        pos, vel, prev = self.cols
+        took = ~self._fresh[t]
+        own = {}
+        for g, x in obs.items():  # the inner policy's own previous action, in every group that holds it
+            x = x.clone()
+            x[took, prev] = self._last[t][took].to(x.dtype)
+            own[g] = x
+        a = self.inner.act(own, ids, contexts)
+        self._last[t], self._fresh[t] = a.detach().float().cpu(), False
+        s = obs["student"].float().cpu()
+        q, qd = self.nominal + s[:, pos], s[:, vel] / JOINT_VEL_SCALE
+        clipped = a.detach().float().cpu().clamp(-self.action.clip, self.action.clip)
+        ref = q if self.ref is None else self.ref
+        target = torch.minimum(torch.maximum(ref + self.action.scale_rad * clipped, self.low), self.high)
+        new = enveloped_targets(target, q, qd, self.kp, self.kd, self.stall, self.speed)
+        return ((new - ref) / self.action.scale_rad).to(a.device, a.dtype)
