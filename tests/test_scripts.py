@@ -310,6 +310,7 @@ def test_mcnemar_p_is_the_exact_binomial_tail():
     assert mcnemar_p(5, 5) == 1.0
     assert mcnemar_p(0, 5) == pytest.approx(2 / 32)  # 2 · 0.5⁵
     assert mcnemar_p(10, 2) == pytest.approx(2 * (1 + 12 + 66) / 4096)
+    assert mcnemar_p(948, 648) < 1e-12 and mcnemar_p(700, 720) > 0.5  # thousands of falls: no float overflow
 
 
 def test_stance_under_noise_prints_shares_per_checkpoint_and_scale(tmp_path, monkeypatch, capsys):
