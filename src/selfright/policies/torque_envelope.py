@@ -64,6 +64,8 @@ class TorqueEnvelope(Policy):
         self.inner, self.action = inner, action
         self.kp, self.kd, self.speed, self.stall = motor.kp, motor.kd, float(speed), float(robot.torque_limit)
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
+        self.group = getattr(inner, "group", None)
+        """The observation group the network reads (a file policy's), as the inner policy's."""
         self.action_mapping, self.trained_motor = inner.action_mapping, inner.trained_motor
         self.digest = None if inner.digest is None else (
             hashlib.sha256(f"{inner.digest}/dc-envelope/{self.speed:g}".encode()).hexdigest()[:16])
