@@ -334,6 +334,18 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     )
 
 
+def test_a_students_reward_line_is_the_first_trainer_up_its_chain_of_students(tmp_path: Path):
+    table = to_dict(RewardConfig())
+    runs = {"teacher": {"role": "teacher", "train_config": {"reward": {**table, "target_height_m": 0.38}}},
+            "student": {"role": "student", "teacher": str(tmp_path / "teacher" / "model_5.pt"),
+                        "train_config": {"reward": table}}}
+    for name, meta in runs.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "train_meta.json").write_text(json.dumps(meta))
+    restudent = {"role": "student", "teacher": str(tmp_path / "student" / "model_9.pt"), "train_config": {"reward": table}}
+    assert reward_summary(restudent) == "the seed's Table I exactly (z* = 0.38 m)"
+
+
 def test_card_record_reads_back_what_a_card_states():
     from selfright.train.ship import card_record
 

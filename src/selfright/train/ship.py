@@ -259,13 +259,16 @@ OWN_WORDS = (
 
 
 def reward_summary(meta: dict[str, Any]) -> str:
-    """Which reward trained the policy (a student: its teacher's), against the seed's Table I:
-    "Table I exactly (z* = …)" or the weights that differ, flagged as not Table I."""
+    """Which reward trained the policy (a student: its teacher's, up a chain of students to the
+    first policy trained with a reward), against the seed's Table I: "Table I exactly (z* = …)"
+    or the weights that differ, flagged as not Table I."""
     from selfright.train.checkpoints import read_meta
 
     source = meta
-    if meta.get("role") == "student" and meta.get("teacher"):
-        teacher = Path(meta["teacher"])
+    for _ in range(16):  # a student of a student of ... (bounded: a cycle of metas is a broken run)
+        if source.get("role") != "student" or not source.get("teacher"):
+            break
+        teacher = Path(source["teacher"])
         source = read_meta(teacher.parent if teacher.suffix == ".pt" else teacher)
     reward = (source.get("train_config") or {}).get("reward")
     if not reward:
