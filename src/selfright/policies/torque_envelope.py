@@ -24,7 +24,7 @@ import torch
 from selfright.config import ActionConfig, RobotConfig
 from selfright.env.observations import JOINT_VEL_SCALE, joint_pos_columns, joint_vel_columns, prev_action_columns
 from selfright.policies.base import Policy
-from selfright.policies.slots import grown, slot_index
+from selfright.policies.slots import LastActions
 from selfright.robots import RobotSpec
 
 
@@ -77,31 +77,26 @@ class TorqueEnvelope(Policy):
         ref = robot.reference_pose(action.reference)
         self.ref = None if ref is None else torch.as_tensor(ref, dtype=torch.float32)
         self.cols = joint_pos_columns(J), joint_vel_columns(J), prev_action_columns(J)
-        self._last = torch.zeros(0, J)
-        self._fresh = torch.zeros(0, dtype=torch.bool)
-
-    def _slots(self, ids: np.ndarray) -> torch.Tensor:
-        t = slot_index(ids)
-        self._last, self._fresh = grown(self._last, t), grown(self._fresh, t, True)
-        return t
+        self._memory = LastActions(J)
+        """The inner policy's own last action per slot (what it observes as its previous one)."""
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.inner.reset(ids, seeds)
-        t = self._slots(ids)
-        self._fresh[t] = True
+        self._memory.reset(ids)
 
     @torch.no_grad()
     def act(self, obs, ids, contexts):
-        t = self._slots(ids)
+        m = self._memory
+        t = m.slots(ids)
         pos, vel, prev = self.cols
-        took = ~self._fresh[t]
+        took = ~m.fresh[t]
         own = {}
         for g, x in obs.items():  # the inner policy's own previous action, in every group that holds it
             x = x.clone()
-            x[took, prev] = self._last[t][took].to(x.dtype)
+            x[took, prev] = m.last[t][took].to(x.dtype)
             own[g] = x
         a = self.inner.act(own, ids, contexts)
-        self._last[t], self._fresh[t] = a.detach().float().cpu(), False
+        m.last[t], m.fresh[t] = a.detach().float().cpu(), False
         s = obs["student"].float().cpu()
         q, qd = self.nominal + s[:, pos], s[:, vel] / JOINT_VEL_SCALE
         clipped = a.detach().float().cpu().clamp(-self.action.clip, self.action.clip)

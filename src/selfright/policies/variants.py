@@ -18,7 +18,7 @@ from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.history import ObsHistory
 from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
-from selfright.policies.slots import grown, slot_index
+from selfright.policies.slots import LastActions, grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
 from selfright.train.symmetry import group_mirrors, mirror
 
@@ -132,27 +132,20 @@ class Smoothed(Policy):
         self.inner, self.beta = inner, float(beta)
         self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
         self.name = f"{inner.name} low-passed (beta {beta:g})"
-        self._last = torch.zeros(0, num_joints)
-        self._fresh = torch.zeros(0, dtype=torch.bool)
-        """Slots whose next action starts an episode (passes unfiltered)."""
-
-    def _slots(self, ids: np.ndarray) -> torch.Tensor:
-        """``ids`` as an index tensor, the buffers grown to hold every one of them."""
-        t = slot_index(ids)
-        self._last, self._fresh = grown(self._last, t), grown(self._fresh, t, True)
-        return t
+        self._memory = LastActions(num_joints)
+        """The last filtered action per slot; a fresh slot's next action passes unfiltered."""
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.inner.reset(ids, seeds)
-        t = self._slots(ids)  # before reading self._fresh: it may grow
-        self._fresh[t] = True
+        self._memory.reset(ids)
 
     def act(self, obs, ids, contexts):
         a = self.inner.act(obs, ids, contexts)
-        t = self._slots(ids)
-        x = a.detach().to(self._last.dtype).cpu()
-        out = torch.where(self._fresh[t][:, None], x, self.beta * self._last[t] + (1.0 - self.beta) * x)
-        self._last[t], self._fresh[t] = out, False
+        m = self._memory
+        t = m.slots(ids)
+        x = a.detach().to(m.last.dtype).cpu()
+        out = torch.where(m.fresh[t][:, None], x, self.beta * m.last[t] + (1.0 - self.beta) * x)
+        m.last[t], m.fresh[t] = out, False
         return out.to(a.device, a.dtype)
 
 
