@@ -40,7 +40,7 @@ class _Episodes:
     action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
     motor: Literal["ideal", "dcmotor"] = "ideal"
-    """Motor model: ideal (full torque at any speed, the benchmark's default) or dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; not what the shipped policies trained with)."""
+    """Motor model: ideal (full torque at any speed, the benchmark's default) or dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; the *-dc policies and rough trained with it, the others with ideal)."""
     torque_envelope: bool = True
     """A policy trained with --motor dcmotor, run on the ideal servos, holds its commands to the DC motors' torque-speed envelope (selfright.policies.torque_envelope); --no-torque-envelope runs it unchanged."""
 

@@ -63,12 +63,14 @@ class RobotConfig:
     """PD damping of every joint (N·m·s/rad)."""
     motor: Literal["ideal", "dcmotor"] = "ideal"
     """Motor model of the PD servos. ``ideal``: full torque (±33.5 N·m on the A1) at any speed,
-    the benchmark's default, under which every shipped policy was trained. ``dcmotor``: MuJoCo's
+    the benchmark's default. ``dcmotor``: MuJoCo's
     DC-motor actuator run as a current-controlled driver (``input="pos"``, torque-space PD gains
     ``kp``, ``kd``) whose drive voltage saturates, so the torque it can give falls linearly to 0
     at the motors' rated speed (``RobotSpec.rated_joint_speed``, 21 rad/s on the A1), as on the
-    real robot. The shipped policies rely on faster joints: with ``dcmotor`` they score far
-    lower (docs/training.md, *A DC-motor model*). Opt-in; the CPU engine only."""
+    real robot. Policies trained with ideal servos rely on faster joints: with ``dcmotor`` they
+    score far lower (docs/training.md, *A DC-motor model*). Policies trained with ``dcmotor``
+    run on the ideal servos in the DC torque envelope (``selfright.policies.torque_envelope``).
+    Opt-in; the CPU engine only."""
     motor_speed_rad_s: float | None = None
     """``dcmotor`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
     robot's rated speed (``RobotSpec.rated_joint_speed``). Faster than the real motors, it moves
