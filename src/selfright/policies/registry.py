@@ -27,16 +27,24 @@ def available_policies() -> list[str]:
     return list(BASELINES) + shipped + extra
 
 
+def _fit_members(policy: Policy, fit) -> bool:
+    """For a multiplexer (its ``policies``): replace each member by ``fit(member)`` and return
+    True; for any other policy return False and change nothing."""
+    subs = getattr(policy, "policies", None)
+    if subs is None:
+        return False
+    for key, sub in subs.items():
+        subs[key] = fit(sub)
+    return True
+
+
 def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_name: str = "a1") -> Policy:
     """``policy`` ready for the env's action mapping ``action``: itself if its recorded mapping
     (``action_mapping``: reference, scale) is that one or unknown; converted
     (``ShiftedReference``) if both references are fixed poses (``stand``/``tall``) at the same
     scale; ``ValueError`` otherwise (its actions would mean other joint targets than the ones
     it learned)."""
-    subs = getattr(policy, "policies", None)
-    if subs is not None:  # a multiplexer: each policy on its own
-        for key, sub in subs.items():
-            subs[key] = check_action_mapping(sub, action, name, robot_name)
+    _fit_members(policy, lambda sub: check_action_mapping(sub, action, name, robot_name))
     mapping = policy.action_mapping
     if mapping is None:
         return policy
@@ -58,10 +66,7 @@ def fit_motor(policy: Policy, cfg: BenchmarkConfig) -> Policy:
     policy trained with ``dcmotor`` (``trained_motor``) run on the ``ideal`` servos holds its
     commands to the DC motors' torque-speed envelope at the speed it trained with
     (``TorqueEnvelope``); any other pairing runs unchanged."""
-    subs = getattr(policy, "policies", None)
-    if subs is not None:  # a multiplexer: each policy on its own
-        for key, sub in subs.items():
-            subs[key] = fit_motor(sub, cfg)
+    if _fit_members(policy, lambda sub: fit_motor(sub, cfg)):
         return policy
     trained = policy.trained_motor
     if trained is None or trained[0] != "dcmotor" or cfg.robot.motor != "ideal":
