@@ -16,13 +16,15 @@ _GRAV = slice(0, 3)
 _Q0 = 6
 
 
-def _joint_angles(obs: torch.Tensor, robot: RobotSpec) -> torch.Tensor:
+def joint_angles(obs: torch.Tensor, robot: RobotSpec) -> torch.Tensor:
+    """(k, J) joint angles (rad) from a ``student`` (or ``teacher``) observation (k, D)."""
     nj = robot.num_joints
     return obs[:, _Q0 : _Q0 + nj] + torch.as_tensor(robot.nominal_pose, dtype=obs.dtype)
 
 
-class _TargetPolicy(Policy):
-    """Base for scripted controllers that think in joint targets rather than actions."""
+class TargetPolicy(Policy):
+    """Base for controllers that think in joint targets rather than actions (the scripted
+    baselines, ``TorqueEnvelope``)."""
 
     groups = ("student",)
 
@@ -31,6 +33,16 @@ class _TargetPolicy(Policy):
         self.action = action
         pose = robot.reference_pose(action.reference)
         self._ref = None if pose is None else torch.as_tensor(pose, dtype=torch.float32)
+        self._low = torch.as_tensor(robot.joint_low, dtype=torch.float32)
+        self._high = torch.as_tensor(robot.joint_high, dtype=torch.float32)
+
+    def to_target(self, action: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+        """PD targets (k, J) the env makes of ``action`` (k, J) given current angles ``q`` (k, J):
+        the action clipped to ±``clip``, reference + scale · action, within the joint range
+        (``RecoveryEnv._targets``)."""
+        ref = q if self._ref is None else self._ref
+        target = ref + self.action.scale_rad * action.clamp(-self.action.clip, self.action.clip)
+        return torch.minimum(torch.maximum(target, self._low), self._high)
 
     def to_action(self, target: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
         """Action whose PD target is ``target`` (k, J) given current angles ``q`` (k, J)."""
@@ -38,7 +50,7 @@ class _TargetPolicy(Policy):
         return (target - ref) / self.action.scale_rad
 
 
-class ZeroPolicy(_TargetPolicy):
+class ZeroPolicy(TargetPolicy):
     """Holds the joint angles the robot had when the policy started (the settled pose)."""
 
     name = "zero"
@@ -53,7 +65,7 @@ class ZeroPolicy(_TargetPolicy):
 
     @torch.no_grad()
     def act(self, obs, ids, contexts):
-        q = _joint_angles(obs["student"], self.robot)
+        q = joint_angles(obs["student"], self.robot)
         hold = []
         for k, i in enumerate(np.asarray(ids).tolist()):
             if i not in self._hold:
@@ -87,7 +99,7 @@ class RandomPolicy(Policy):
 TUCK, ROLL, STAND, HOLD = 0, 1, 2, 3
 
 
-class OpenLoopPolicy(_TargetPolicy):
+class OpenLoopPolicy(TargetPolicy):
     """A scripted righting routine of the kind commercial quadrupeds ship.
 
     Fixed joint-space key poses, switched on timers and on the IMU's tilt only (no terrain
@@ -148,7 +160,7 @@ class OpenLoopPolicy(_TargetPolicy):
     @torch.no_grad()
     def act(self, obs, ids, contexts):
         student = obs["student"]
-        q = _joint_angles(student, self.robot)
+        q = joint_angles(student, self.robot)
         grav = student[:, _GRAV]
         upright = -grav[:, 2] >= self.upright_cos
         targets = []

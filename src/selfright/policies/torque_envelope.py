@@ -22,8 +22,9 @@ import numpy as np
 import torch
 
 from selfright.config import ActionConfig, RobotConfig
-from selfright.env.observations import JOINT_VEL_SCALE, joint_pos_columns, joint_vel_columns, prev_action_columns
+from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns
 from selfright.policies.base import Policy
+from selfright.policies.baselines import TargetPolicy, joint_angles
 from selfright.policies.slots import LastActions
 from selfright.robots import RobotSpec
 
@@ -45,7 +46,7 @@ def enveloped_targets(target: torch.Tensor, q: torch.Tensor, qd: torch.Tensor, k
     return q + (torch.minimum(torch.maximum(tau, low), high) + kd * qd) / kp
 
 
-class TorqueEnvelope(Policy):
+class TorqueEnvelope(TargetPolicy):
     """``inner`` (actions in the env's units) with each joint's commanded torque held to the
     DC motors' torque-speed envelope (module docstring).
 
@@ -61,7 +62,8 @@ class TorqueEnvelope(Policy):
         speed = motor.motor_speed_rad_s or robot.rated_joint_speed
         if not speed or speed <= 0:
             raise ValueError(f"robot {robot.name!r} has no rated joint speed; give RobotConfig.motor_speed_rad_s")
-        self.inner, self.action = inner, action
+        super().__init__(robot, action)
+        self.inner = inner
         self.kp, self.kd, self.speed, self.stall = motor.kp, motor.kd, float(speed), float(robot.torque_limit)
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.group = getattr(inner, "group", None)
@@ -71,12 +73,7 @@ class TorqueEnvelope(Policy):
             hashlib.sha256(f"{inner.digest}/dc-envelope/{self.speed:g}".encode()).hexdigest()[:16])
         self.name = f"{inner.name} in a DC torque envelope ({self.speed:g} rad/s)"
         J = len(robot.joint_names)
-        self.nominal = torch.as_tensor(robot.nominal_pose, dtype=torch.float32)
-        self.low = torch.as_tensor(robot.joint_low, dtype=torch.float32)
-        self.high = torch.as_tensor(robot.joint_high, dtype=torch.float32)
-        ref = robot.reference_pose(action.reference)
-        self.ref = None if ref is None else torch.as_tensor(ref, dtype=torch.float32)
-        self.cols = joint_pos_columns(J), joint_vel_columns(J), prev_action_columns(J)
+        self.cols = joint_vel_columns(J), prev_action_columns(J)
         self._memory = LastActions(J)
         """The inner policy's own last action per slot (what it observes as its previous one)."""
 
@@ -88,7 +85,7 @@ class TorqueEnvelope(Policy):
     def act(self, obs, ids, contexts):
         m = self._memory
         t = m.slots(ids)
-        pos, vel, prev = self.cols
+        vel, prev = self.cols
         took = ~m.fresh[t]
         own = {}
         for g, x in obs.items():  # the inner policy's own previous action, in every group that holds it
@@ -96,11 +93,9 @@ class TorqueEnvelope(Policy):
             x[took, prev] = m.last[t][took].to(x.dtype)
             own[g] = x
         a = self.inner.act(own, ids, contexts)
-        m.last[t], m.fresh[t] = a.detach().float().cpu(), False
+        mine = a.detach().float().cpu()
+        m.last[t], m.fresh[t] = mine, False
         s = obs["student"].float().cpu()
-        q, qd = self.nominal + s[:, pos], s[:, vel] / JOINT_VEL_SCALE
-        clipped = a.detach().float().cpu().clamp(-self.action.clip, self.action.clip)
-        ref = q if self.ref is None else self.ref
-        target = torch.minimum(torch.maximum(ref + self.action.scale_rad * clipped, self.low), self.high)
-        new = enveloped_targets(target, q, qd, self.kp, self.kd, self.stall, self.speed)
-        return ((new - ref) / self.action.scale_rad).to(a.device, a.dtype)
+        q, qd = joint_angles(s, self.robot), s[:, vel] / JOINT_VEL_SCALE
+        new = enveloped_targets(self.to_target(mine, q), q, qd, self.kp, self.kd, self.stall, self.speed)
+        return self.to_action(new, q).to(a.device, a.dtype)
