@@ -61,6 +61,7 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     meta = json.loads((out / "train_meta.json").read_text())
     assert meta["iterations_done"] == 2 and meta["env_steps"] == 2 * 4 * 8 and len(meta["command_lines"]) == 2
     assert meta["command_start_iterations"] == [0, 1]
+    assert len(meta["command_devices"]) == 2 and meta["command_devices"][-1] == meta["device"]
 
     student = tmp_path / "student"
     r = run(spec(student, role="student", teacher=out))

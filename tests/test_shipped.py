@@ -110,3 +110,21 @@ def test_a_card_names_a_motor_model_other_than_the_default():
     assert "--motor dcmotor" in line and "torque-speed envelope" in line
     fast = motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor", "motor_speed_rad_s": 30.0}}})[0]
     assert "--motor dcmotor" in fast and "30 rad/s" in fast
+
+
+def test_a_card_names_the_machines_that_trained_its_checkpoint(tmp_path: Path):
+    """A run resumed elsewhere after the shipped checkpoint: the card keeps that checkpoint's
+    invocations and machines, not the run's latest one."""
+    import json
+
+    from selfright.train.ship import checkpoint_meta
+
+    meta = {"command_lines": ["a", "b", "c"], "command_start_iterations": [0, 462, 722],
+            "command_devices": ["gpu 5", "gpu 8", "laptop"], "device": "laptop",
+            "latest_checkpoint": str(tmp_path / "model_1199.pt")}
+    (tmp_path / "train_meta.json").write_text(json.dumps(meta))
+    infos = {"iterations_done": 722, "env_steps": 4_435_968, "wall_clock_s": 617.0}
+    torch.save({"infos": infos}, tmp_path / "model_721.pt")
+    out = checkpoint_meta(tmp_path / "model_721.pt")
+    assert out["command_lines"] == ["a", "b"] and out["device"] == "gpu 5; then gpu 8"
+    assert out["env_steps"] == 4_435_968

@@ -308,12 +308,12 @@ class TrainingRun:
             self._install_stance_teacher(load_student_weights=self.resume_ckpt is None)
         resumed_infos: dict = {}
         if self.resume_ckpt is not None:
-            resumed_infos = r.load(str(self.resume_ckpt)) or {}
+            resumed_infos = r.load(str(self.resume_ckpt), map_location=s.device) or {}  # a GPU run resumes on the CPU too
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
             self.env.restore_curriculum(resumed_infos.get("curriculum_level"))
         elif s.role == "student":
             if fallback is None and self.stance_base is None:  # (else the teachers are loaded above)
-                r.load(str(self.teacher_ckpt))  # loads the teacher only (rsl_rl: from an RL checkpoint)
+                r.load(str(self.teacher_ckpt), map_location=s.device)  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.role == "student-ppo":
             teacher = torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)
             r.alg.load(student_ppo_start(self.init_student.to(s.device), teacher), {"actor": True, "critic": True}, True)
@@ -455,10 +455,19 @@ class TrainingRun:
             "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if student else [],
         }
 
+    def _prev_devices(self) -> list[str | None]:
+        """The machine of each earlier invocation (``command_devices``, aligned with
+        ``command_lines``); a meta written before that field names only its last machine."""
+        prev, cmds = self.prev_meta.get("command_devices"), self.prev_meta.get("command_lines", [])
+        if prev is not None and len(prev) == len(cmds):
+            return list(prev)
+        return [self.prev_meta.get("device")] * len(cmds)
+
     def meta(self, done_it: int, checkpoint: Path | None) -> dict[str, Any]:
         """``train_meta.json`` after ``done_it`` learning iterations in total."""
         s = self.spec
         cmd = shlex.join(sys.argv)
+        device = _device_string(s.physics_threads, s.torch_threads, s.device)
         return {
             "role": s.role,
             "context": s.context,
@@ -468,7 +477,8 @@ class TrainingRun:
             "iterations_target": s.iterations,
             "env_steps": self.base_steps + (done_it - self.start_it) * self.steps_per_it,
             "wall_clock_s": round(self.base_wall + time.time() - self.t0, 1),
-            "device": _device_string(s.physics_threads, s.torch_threads, s.device),
+            "device": device,
+            "command_devices": [*self._prev_devices(), device],
             "command_line": cmd,
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
             "command_start_iterations": [*self.prev_meta.get("command_start_iterations", []), self.start_it],

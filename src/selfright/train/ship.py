@@ -89,7 +89,12 @@ def checkpoint_meta(run: Path) -> dict[str, Any]:
     out = {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
     cmds, starts = meta.get("command_lines") or [], meta.get("command_start_iterations") or []
     if cmds and len(starts) == len(cmds):  # only the invocations that led to this checkpoint
-        out["command_lines"] = [c for c, s in zip(cmds, starts) if s < int(infos["iterations_done"])]
+        done = int(infos["iterations_done"])
+        out["command_lines"] = [c for c, s in zip(cmds, starts) if s < done]
+        devices = meta.get("command_devices") or []
+        if len(devices) == len(cmds):  # the machines those ran on, not the run's latest one
+            used = [d for d, s in zip(devices, starts) if s < done and d]
+            out["device"] = "; then ".join(dict.fromkeys(used)) or meta.get("device")
     return out
 
 
