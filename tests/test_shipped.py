@@ -3,6 +3,7 @@ the same outputs, carry a model card, and ``sr`` multiplexes the three students.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -114,17 +115,18 @@ def test_a_card_names_a_motor_model_other_than_the_default():
 
 def test_a_card_names_the_machines_that_trained_its_checkpoint(tmp_path: Path):
     """A run resumed elsewhere after the shipped checkpoint: the card keeps that checkpoint's
-    invocations and machines, not the run's latest one."""
-    import json
-
+    invocations and machines, not the run's latest one; shipping the latest names them all."""
     from selfright.train.ship import checkpoint_meta
 
     meta = {"command_lines": ["a", "b", "c"], "command_start_iterations": [0, 462, 722],
             "command_devices": ["gpu 5", "gpu 8", "laptop"], "device": "laptop",
-            "latest_checkpoint": str(tmp_path / "model_1199.pt")}
+            "latest_checkpoint": str(tmp_path / "model_1199.pt"), "iterations_done": 1200}
     (tmp_path / "train_meta.json").write_text(json.dumps(meta))
     infos = {"iterations_done": 722, "env_steps": 4_435_968, "wall_clock_s": 617.0}
     torch.save({"infos": infos}, tmp_path / "model_721.pt")
     out = checkpoint_meta(tmp_path / "model_721.pt")
     assert out["command_lines"] == ["a", "b"] and out["device"] == "gpu 5; then gpu 8"
     assert out["env_steps"] == 4_435_968
+    torch.save({"infos": {}}, tmp_path / "model_1199.pt")
+    latest = checkpoint_meta(tmp_path)
+    assert latest["command_lines"] == ["a", "b", "c"] and latest["device"] == "gpu 5; then gpu 8; then laptop"

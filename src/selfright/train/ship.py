@@ -80,19 +80,26 @@ def checkpoint_meta(run: Path) -> dict[str, Any]:
         raise ValueError(f"{folder} has no train_meta.json; pass a folder written by `selfright train`")
     ckpt = latest_checkpoint(run)
     if meta.get("latest_checkpoint") and Path(meta["latest_checkpoint"]).name == ckpt.name:
-        return meta
+        return _invocations(meta, meta.get("iterations_done"))
     infos = torch.load(ckpt, map_location="cpu", weights_only=True).get("infos") or {}
     progress = ("iterations_done", "env_steps", "wall_clock_s")
     if not all(k in infos for k in progress):
         raise ValueError(f"{ckpt} does not record its env steps and wall-clock (an older checkpoint); "
                          f"ship the run folder (its latest checkpoint) instead")
     out = {**meta, **{k: infos[k] for k in progress}, "latest_checkpoint": str(ckpt)}
+    return _invocations(out, int(infos["iterations_done"]))
+
+
+def _invocations(meta: dict[str, Any], done: int | None) -> dict[str, Any]:
+    """``meta`` with only the invocations that led to a checkpoint after ``done`` iterations
+    (``command_lines``) and the machines they ran on (``device``: each one, in order, where the
+    run records them per invocation; else the run's last machine)."""
+    out = dict(meta)
     cmds, starts = meta.get("command_lines") or [], meta.get("command_start_iterations") or []
-    if cmds and len(starts) == len(cmds):  # only the invocations that led to this checkpoint
-        done = int(infos["iterations_done"])
+    if done is not None and cmds and len(starts) == len(cmds):
         out["command_lines"] = [c for c, s in zip(cmds, starts) if s < done]
         devices = meta.get("command_devices") or []
-        if len(devices) == len(cmds):  # the machines those ran on, not the run's latest one
+        if len(devices) == len(cmds):
             used = [d for d, s in zip(devices, starts) if s < done and d]
             out["device"] = "; then ".join(dict.fromkeys(used)) or meta.get("device")
     return out
