@@ -374,3 +374,23 @@ def test_joint_stops_reports_each_joint_kind_and_the_rated_speed(monkeypatch, ca
     for kind in ("abduction", "hip", "knee"):
         assert kind in out
     assert "faster than 21 rad/s" in out
+
+
+def test_train_tiles_swaps_in_the_training_tiles_or_fresh_draws(tmp_path, monkeypatch):
+    import csv
+
+    import selfright.evaluate.runner as runner
+    from selfright.config import BenchmarkConfig
+    from selfright.train.contexts import make_training_worlds
+
+    monkeypatch.setattr(runner, "build_world", runner.build_world)  # the script swaps it; restored after the test
+    rs = {}
+    for tiles in ("train", "fresh"):
+        out = tmp_path / tiles
+        run_script("train_tiles.py", ["--policy", "zero", "--tiles", tiles, "--episodes", "1", "--out", str(out)], monkeypatch)
+        with (out / "episodes.csv").open() as fh:
+            rs[tiles] = {r["roughness_level"]: float(r["roughness_R"]) for r in csv.DictReader(fh)}
+    assert sorted(rs["train"], key=int) == ["4", "8", "12"]
+    trained = make_training_worlds("rough", BenchmarkConfig(), seed=0)
+    assert rs["train"]["12"] == pytest.approx(trained[6].tile.roughness(), rel=1e-3)  # 0.306 m, nearest level 12
+    assert all(rs["train"][k] != pytest.approx(rs["fresh"][k], rel=1e-3) for k in rs["train"])
