@@ -42,6 +42,8 @@ class Args:
     """Falls (and, with --tiles fresh, the tile variant 1000 + seed)."""
     train_seed: int = 0
     """The training run's ``--seed`` (its tiles depend on it)."""
+    rough_variants: int = 8
+    """The training run's ``--train.episode.rough-variants`` (its tiles depend on it)."""
     episodes: int = 64
     """Episodes per cell."""
     threads: int = 1
@@ -50,7 +52,7 @@ class Args:
 
 def main(a: Args) -> None:
     bench = cli._benchmark_config()
-    train = training_cells("rough", bench, EpisodeConfig())
+    train = training_cells("rough", bench, EpisodeConfig(rough_variants=a.rough_variants))
     extents = np.array([c.roughness_extent_m for c in train])
 
     def swapped(cell, cfg, ctx, seed, variant=0, robot=None):
