@@ -16,7 +16,7 @@ on). The falls are the benchmark's for the cell and ``--seed``, so the two runs 
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -57,13 +57,11 @@ def main(a: Args) -> None:
 
     def swapped(cell, cfg, ctx, seed, variant=0, robot=None):
         k = int(np.argmin(np.abs(extents - cell.roughness_extent_m)))
-        if a.tiles == "train":
-            world = build_world(train[k], cfg, ctx, a.train_seed, variant=k, robot=robot)
-        else:
-            world = build_world(train[k], cfg, ctx, a.train_seed, variant=1000 + a.seed, robot=robot)
+        tile_variant = k if a.tiles == "train" else 1000 + a.seed
+        world = build_world(train[k], cfg, ctx, a.train_seed, variant=tile_variant, robot=robot)
         print(f"level {cell.roughness_level} ({cell.roughness_extent_m:.3f} m) -> training extent "
               f"{train[k].roughness_extent_m:.3f} m, {a.tiles} tile", file=sys.stderr)
-        return type(world)(cell=cell, tile=world.tile, context=world.context, model=world.model, xml=world.xml)
+        return replace(world, cell=cell)  # the benchmark's cell (its falls and row labels), the swapped tile
 
     runner.build_world = swapped
     cli.main([

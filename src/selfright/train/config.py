@@ -161,8 +161,8 @@ class EpisodeConfig:
     each is one fixed noise draw. With 8 a teacher that reads a height scan learns those tiles:
     ``rough-dc-teacher`` scores 74 % on its level-12 training tile and 58 % on fresh ones
     (``scripts/train_tiles.py``); 64 lifted it from 80.7 to 86.0 % on the benchmark's (fresh)
-    tiles, seeds 0–7 (docs/training.md, *Sixty-four training tiles for the rough teacher*). The default stays 8 so the shipped runs'
-    commands reproduce; pass 64 for new rough runs."""
+    tiles, seeds 0–7 (docs/training.md, *Sixty-four training tiles for the rough teacher*).
+    The default stays 8 so the shipped runs' commands reproduce; pass 64 for new rough runs."""
     tile_size_m: float | None = None
     """Side of the training tiles (m); ``None`` = the benchmark's (``TerrainConfig.tile_size_m``,
     8 m). Robots are still dropped in the same central square; a larger tile lets an episode
