@@ -23,9 +23,10 @@ from typing import Literal
 import numpy as np
 import tyro
 
-import selfright.evaluate.runner as runner
 from selfright import cli
-from selfright.env.world import build_world
+from selfright.env.world import World, build_world
+from selfright.evaluate.runner import context_config
+from selfright.terrain import Cell
 from selfright.train.config import EpisodeConfig
 from selfright.train.contexts import training_cells
 
@@ -51,23 +52,23 @@ class Args:
 
 
 def main(a: Args) -> None:
-    bench = cli._benchmark_config()
-    train = training_cells("rough", bench, EpisodeConfig(rough_variants=a.rough_variants))
+    ev = cli.Evaluate(policy=a.policy, grid="rough", episodes=a.episodes, seed=a.seed, threads=a.threads,
+                      out=a.out, plots=False, progress=False)
+    cfg = ev.bench_config()
+    ctx = context_config(cfg)
+    train = training_cells("rough", cfg, EpisodeConfig(rough_variants=a.rough_variants))
     extents = np.array([c.roughness_extent_m for c in train])
 
-    def swapped(cell, cfg, ctx, seed, variant=0, robot=None):
+    def swapped(cell: Cell) -> World:
         k = int(np.argmin(np.abs(extents - cell.roughness_extent_m)))
         tile_variant = k if a.tiles == "train" else 1000 + a.seed
-        world = build_world(train[k], cfg, ctx, a.train_seed, variant=tile_variant, robot=robot)
+        world = build_world(train[k], cfg, ctx, a.train_seed, variant=tile_variant)
         print(f"level {cell.roughness_level} ({cell.roughness_extent_m:.3f} m) -> training extent "
               f"{train[k].roughness_extent_m:.3f} m, {a.tiles} tile", file=sys.stderr)
         return replace(world, cell=cell)  # the benchmark's cell (its falls and row labels), the swapped tile
 
-    runner.build_world = swapped
-    cli.main([
-        "evaluate", "--policy", a.policy, "--grid", "rough", "--episodes", str(a.episodes), "--seed", str(a.seed),
-        "--threads", str(a.threads), "--no-progress", "--no-plots", "--out", str(a.out),
-    ])
+    label = f"{a.tiles} tiles of a rough run with {a.rough_variants} variants, training seed {a.train_seed}"
+    cli.run_evaluate(ev, world_for=swapped, worlds_label=label)
 
 
 if __name__ == "__main__":

@@ -91,6 +91,26 @@ def test_resume_refuses_a_different_run(reference, tmp_path):
         run(tmp_path, seed=5)
 
 
+def test_swapped_worlds_keep_the_falls_and_are_part_of_the_identity(reference, tmp_path):
+    """``world_for`` builds each cell's world; with the benchmark's own builder the rows are the
+    benchmark's, and a resume refuses a run made on other worlds."""
+    from selfright.env.world import build_world
+    from selfright.evaluate.runner import context_config
+
+    def same(cell):
+        return build_world(cell, CFG, context_config(CFG), 0)
+
+    res = evaluate_grid(make_policy("random", CFG), policy_name="random", grid="tiny", episodes=2, seed=0,
+                        out_dir=tmp_path, cfg=CFG, progress=False, world_for=same, worlds_label="the benchmark's")
+    assert res.episodes_run == 8
+    assert (tmp_path / "episodes.csv").read_bytes() == (reference / "episodes.csv").read_bytes()
+    with pytest.raises(ResultsError, match="different run"):
+        run(tmp_path)
+    with pytest.raises(ValueError, match="together"):
+        evaluate_grid(make_policy("random", CFG), policy_name="random", grid="tiny", episodes=2, seed=0,
+                      out_dir=tmp_path / "x", cfg=CFG, progress=False, world_for=same)
+
+
 def test_wilson_interval_known_values():
     lo, hi = wilson_interval(8, 10)
     assert lo == pytest.approx(0.4902, abs=1e-3) and hi == pytest.approx(0.9433, abs=1e-3)

@@ -379,11 +379,9 @@ def test_joint_stops_reports_each_joint_kind_and_the_rated_speed(monkeypatch, ca
 def test_train_tiles_swaps_in_the_training_tiles_or_fresh_draws(tmp_path, monkeypatch):
     import csv
 
-    import selfright.evaluate.runner as runner
     from selfright.config import BenchmarkConfig
     from selfright.train.contexts import make_training_worlds
 
-    monkeypatch.setattr(runner, "build_world", runner.build_world)  # the script swaps it; restored after the test
     rs = {}
     for tiles in ("train", "fresh"):
         out = tmp_path / tiles

@@ -138,7 +138,9 @@ def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: 
     )
 
 
-def run_evaluate(a: Evaluate) -> None:
+def run_evaluate(a: Evaluate, **worlds) -> None:
+    """``selfright evaluate``; ``worlds`` (``world_for``, ``worlds_label``) pass on to
+    ``evaluate_grid`` for diagnostics that swap the tiles (scripts/train_tiles.py)."""
     from selfright.evaluate.runner import evaluate_grid, format_table
     from selfright.policies.registry import make_policy
 
@@ -149,7 +151,7 @@ def run_evaluate(a: Evaluate) -> None:
     policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
-        progress=a.progress,
+        progress=a.progress, **worlds,
     )
     if a.plots:
         from selfright.plots import make_plots

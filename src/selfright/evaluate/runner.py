@@ -73,8 +73,15 @@ def evaluate_grid(
     out_dir: Path,
     cfg: BenchmarkConfig,
     progress: bool = True,
+    world_for: Callable[[Cell], World] | None = None,
+    worlds_label: str | None = None,
 ) -> EvalResult:
-    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary."""
+    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary.
+
+    ``world_for(cell)`` replaces the benchmark's world of each cell (diagnostics: another tile
+    under the same falls; the world's ``cell`` should stay the benchmark's, so the falls and the
+    result rows are the cell's). It needs ``worlds_label``, recorded in the run's identity so a
+    resume never mixes two kinds of world."""
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
     cells = grid_cells(grid, cfg.terrain)
@@ -83,6 +90,10 @@ def evaluate_grid(
     identity = {"policy": policy_name, "grid": grid, "episodes_per_cell": episodes, "seed": seed, "config": to_dict(cfg)}
     if policy.digest is not None:  # the weights, so a resume never mixes two versions of a named policy
         identity["policy_digest"] = policy.digest
+    if (world_for is None) != (worlds_label is None):
+        raise ValueError("world_for and worlds_label go together")
+    if worlds_label is not None:
+        identity["worlds"] = worlds_label
     check_run_identity(out_dir, identity)
     csv_path = out_dir / "episodes.csv"
     order = {(c.slope_level, c.roughness_level): k for k, c in enumerate(cells)}
@@ -92,7 +103,7 @@ def evaluate_grid(
 
     ctx = context_config(cfg)
     t0 = time.time()
-    worlds: list[World] = [build_world(c, cfg, ctx, seed) for c in cells]
+    worlds: list[World] = [build_world(c, cfg, ctx, seed) if world_for is None else world_for(c) for c in cells]
     rough = [w.tile.roughness() for w in worlds]
     rows = list(existing)
     if jobs:
