@@ -53,6 +53,7 @@ from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.stance_teacher import StanceTeacher
 from selfright.train.student_ppo import attach_critic_warmup, load_student, student_ppo_start, student_train_config
 from selfright.train.override_mask import attach_override_mask
+from selfright.train.run_lock import run_lock
 from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
 from selfright.train.velocity_estimator import attach_velocity_estimator
@@ -616,10 +617,19 @@ class TrainingRun:
 
 
 def run_training(spec: RunSpec) -> Path:
-    """Set up and run; returns the final checkpoint path."""
-    run = TrainingRun(spec)
-    run.setup()
-    return run.run()
+    """Set up and run, holding the run folder's lock (``selfright.train.run_lock``); returns
+    the final checkpoint path. A folder this call created and left empty (a user error before
+    anything was written) is removed."""
+    created = not spec.out.exists()
+    spec.out.mkdir(parents=True, exist_ok=True)
+    try:
+        with run_lock(spec.out):
+            run = TrainingRun(spec)
+            run.setup()
+            return run.run()
+    finally:
+        if created and spec.out.is_dir() and not any(spec.out.iterdir()):
+            spec.out.rmdir()
 
 
 # --------------------------------------------------------------------- helpers
