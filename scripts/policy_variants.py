@@ -74,7 +74,8 @@ class Args:
     ``selfright.policies.stall.ScanSwitch``); the third acts while tilted. 0 = off."""
     blind_first: tuple[str, ...] = ()
     """Privileged blocks hidden from the first policy (a teacher): ``velocity`` (read as 0),
-    ``friction`` (1.0), ``factors`` (1.0); ``selfright.policies.variants.Blinded``."""
+    ``friction`` (1.0), ``factors`` (1.0), ``scan`` (every point at the trunk's height above the
+    ground beneath it: a flat ground); ``selfright.policies.variants.Blinded``."""
     estimate_first: str | None = None
     """A student policy file, checkpoint or run folder with a velocity estimator: the first policy (a
     teacher with the same action mapping) reads the estimate from the student's observation
@@ -209,6 +210,7 @@ def main(a: Args) -> None:
     else:
         joined = " + ".join(a.policies)
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
+    name += f" (first blind to {', '.join(a.blind_first)})" if a.blind_first else ""
     name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
     name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""
     name += (f" (hips to 0 over {a.zero_hips_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg)"

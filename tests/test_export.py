@@ -361,8 +361,14 @@ def test_blinded_teacher_sees_fixed_privileged_blocks():
     keep = torch.ones(79, dtype=torch.bool)
     keep[cols["velocity"]] = keep[cols["factors"]] = False
     assert torch.equal(got[:, keep], x[:, keep])  # the rest untouched, the caller's tensor too
+    Blinded(_Echo(), ["scan"]).act({"teacher": x}, np.arange(3), [None] * 3)
+    got = seen[-1]  # a flat ground at the trunk's own height above the ground beneath it
+    assert torch.equal(got[:, cols["scan"]], x[:, cols["height"]].expand(3, cols["scan"].stop - cols["scan"].start))
+    keep = torch.ones(79, dtype=torch.bool)
+    keep[cols["scan"]] = False
+    assert torch.equal(got[:, keep], x[:, keep])
     with pytest.raises(ValueError, match="cannot blind"):
-        Blinded(_Echo(), ["scan"])
+        Blinded(_Echo(), ["slope"])
 
 
 def test_smoothed_policy_low_passes_each_slot_from_its_episode_start():

@@ -41,9 +41,11 @@ class MeanOf(Policy):
         return torch.stack([p.act(obs, ids, contexts) for p in self.members]).mean(0)
 
 
-BLIND_VALUES = {"velocity": 0.0, "friction": 1.0, "factors": 1.0}
+BLIND_VALUES: dict[str, float | str] = {"velocity": 0.0, "friction": 1.0, "factors": 1.0, "scan": "height"}
 """What ``Blinded`` puts in each privileged block it hides: a trunk at rest, the nominal
-friction, the nominal mass and gain factors."""
+friction, the nominal mass and gain factors; ``scan`` reads every scan point as the trunk's
+height above the ground beneath it (the ``height`` block), which is what a flat ground would
+give: the terrain's shape is hidden, the height the trunk stands at is not."""
 
 
 class Blinded(Policy):
@@ -56,6 +58,7 @@ class Blinded(Policy):
             raise ValueError(f"cannot blind {sorted(unknown)}; choose from {sorted(BLIND_VALUES)}")
         cols = privileged_columns(num_joints)
         self.inner, self.blocks = inner, [(cols[b], BLIND_VALUES[b]) for b in blocks]
+        self.height = cols["height"]
         self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
         self.name = f"{inner.name} blind to {', '.join(blocks)}"
 
@@ -65,7 +68,7 @@ class Blinded(Policy):
     def act(self, obs, ids, contexts):
         x = obs["teacher"].clone()
         for cols, value in self.blocks:
-            x[:, cols] = value
+            x[:, cols] = x[:, self.height] if isinstance(value, str) else value
         return self.inner.act({**obs, "teacher": x}, ids, contexts)
 
 
