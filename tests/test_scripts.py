@@ -304,15 +304,6 @@ def test_failure_overlap_counts_shared_failures(tmp_path, monkeypatch, capsys):
         run_script("failure_overlap.py", [str(tmp_path / "p")], monkeypatch)
 
 
-def test_mcnemar_p_is_the_exact_binomial_tail():
-    mcnemar_p = runpy.run_path(str(SCRIPTS / "failure_overlap.py"))["mcnemar_p"]
-    assert mcnemar_p(0, 0) == 1.0
-    assert mcnemar_p(5, 5) == 1.0
-    assert mcnemar_p(0, 5) == pytest.approx(2 / 32)  # 2 · 0.5⁵
-    assert mcnemar_p(10, 2) == pytest.approx(2 * (1 + 12 + 66) / 4096)
-    assert mcnemar_p(948, 648) < 1e-12 and mcnemar_p(700, 720) > 0.5  # thousands of falls: no float overflow
-
-
 def test_stance_under_noise_prints_shares_per_checkpoint_and_scale(tmp_path, monkeypatch, capsys):
     ckpt = tiny_checkpoint(tmp_path)
     run_script("stance_under_noise.py", ["--checkpoints", str(ckpt), "--episodes", "2", "--noise-scales", "0", "1"], monkeypatch)

@@ -94,6 +94,19 @@ class Replay(_Episodes):
 
 
 @dataclass(frozen=True)
+class Compare:
+    """Compare policies on the same falls: each policy's success with its 95 % interval and,
+    for two policies, the exact McNemar test on the falls only one of them got up from. Give the
+    results folders of ``selfright evaluate`` runs with the same grid and seeds (several seeds
+    per policy pool); nothing is simulated."""
+
+    folders: tyro.conf.Positional[tuple[Path, ...]]
+    """Results folders (grouped by the policy named in their summary.json)."""
+    by_cell: bool = False
+    """Also print each policy's rate in every cell."""
+
+
+@dataclass(frozen=True)
 class Scene:
     """Write a self-contained MJCF of the robot on one terrain tile (open it in the MuJoCo viewer)."""
 
@@ -232,7 +245,7 @@ def run_bench(a: BenchSim) -> None:
 
 
 def _commands() -> dict[str, type]:
-    cmds: dict[str, type] = {"evaluate": Evaluate, "replay": Replay, "scene": Scene, "bench-sim": BenchSim}
+    cmds: dict[str, type] = {"evaluate": Evaluate, "compare": Compare, "replay": Replay, "scene": Scene, "bench-sim": BenchSim}
     try:
         from selfright.train.commands import ExportArgs, TrainArgs
         from selfright.train.ship import ShipArgs
@@ -251,6 +264,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if isinstance(args, Evaluate):
             run_evaluate(args)
+        elif isinstance(args, Compare):
+            from selfright.evaluate.compare import read_outcomes, report
+
+            print(report(read_outcomes(args.folders), by_cell=args.by_cell))
         elif isinstance(args, Replay):
             run_replay(args)
         elif isinstance(args, Scene):
