@@ -45,6 +45,16 @@ def test_a_lock_from_another_machine_or_torn_is_taken_over(tmp_path: Path):
     assert not (tmp_path / LOCK_NAME).exists()
 
 
+def test_a_pid_reused_by_another_program_is_stale(tmp_path: Path):
+    other = subprocess.Popen(["sleep", "60"])
+    try:
+        write_lock(tmp_path, other.pid)
+        assert lock_holder(tmp_path) is None
+    finally:
+        other.kill()
+        other.wait()
+
+
 def test_the_lock_is_released_when_the_run_fails(tmp_path: Path):
     with pytest.raises(RuntimeError):
         with run_lock(tmp_path):

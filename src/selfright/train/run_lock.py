@@ -23,13 +23,19 @@ LOCK_NAME = "train.lock"
 
 
 def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs and could be a ``selfright train`` (a Python process). Where
+    ``/proc`` tells the command line, a process that is not Python is a reused pid: stale."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:  # someone else's process: it exists
-        return True
-    return True
+        pass
+    try:
+        cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return True  # no /proc (macOS) or not ours to read: trust the pid
+    return b"python" in cmdline or b"selfright" in cmdline
 
 
 def lock_holder(out: Path) -> dict | None:
@@ -58,7 +64,7 @@ def run_lock(out: Path) -> Iterator[None]:
                 raise ValueError(
                     f"{out} is being written by another selfright train (pid {holder['pid']}, since "
                     f"{holder.get('since', '?')}); a stopped run saves and validates its last checkpoint "
-                    f"before it exits. Wait for it, or stop it (kill {holder['pid']}), then rerun"
+                    f"before it exits. Wait for it, or stop that process, then rerun"
                 ) from None
             if holder is not None:
                 raise ValueError(f"{out} is already held by this process; runs into one folder cannot nest")
