@@ -1,4 +1,4 @@
-"""``selfright`` command line: evaluate, replay, scene, bench-sim, train, export, ship (tyro subcommands)."""
+"""``selfright`` command line: evaluate, compare, replay, scene, bench-sim, train, export, ship (tyro subcommands)."""
 
 from __future__ import annotations
 
@@ -6,11 +6,15 @@ import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Callable, Literal
 
 import tyro
 
 from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, RobotConfig, SimConfig
+
+if TYPE_CHECKING:
+    from selfright.env.world import World
+    from selfright.terrain import Cell
 
 Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
 
@@ -151,9 +155,9 @@ def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: 
     )
 
 
-def run_evaluate(a: Evaluate, **worlds) -> None:
-    """``selfright evaluate``; ``worlds`` (``world_for``, ``worlds_label``) pass on to
-    ``evaluate_grid`` for diagnostics that swap the tiles (scripts/train_tiles.py)."""
+def run_evaluate(a: Evaluate, world_for: Callable[[Cell], World] | None = None, worlds_label: str | None = None) -> None:
+    """``selfright evaluate``; ``world_for`` and ``worlds_label`` pass on to ``evaluate_grid``
+    for diagnostics that swap the tiles (scripts/train_tiles.py)."""
     from selfright.evaluate.runner import evaluate_grid, format_table
     from selfright.policies.registry import make_policy
 
@@ -164,7 +168,7 @@ def run_evaluate(a: Evaluate, **worlds) -> None:
     policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
-        progress=a.progress, **worlds,
+        progress=a.progress, world_for=world_for, worlds_label=worlds_label,
     )
     if a.plots:
         from selfright.plots import make_plots

@@ -42,10 +42,11 @@ class MeanOf(Policy):
 
 
 BLIND_VALUES: dict[str, float | str] = {"velocity": 0.0, "friction": 1.0, "factors": 1.0, "scan": "height"}
-"""What ``Blinded`` puts in each privileged block it hides: a trunk at rest, the nominal
-friction, the nominal mass and gain factors; ``scan`` reads every scan point as the trunk's
-height above the ground beneath it (the ``height`` block), which is what a flat ground would
-give: the terrain's shape is hidden, the height the trunk stands at is not."""
+"""What ``Blinded`` puts in each privileged block it hides: a number, or the name of another
+block whose (single) column it copies. A trunk at rest, the nominal friction, the nominal mass
+and gain factors; ``scan`` reads every scan point as the trunk's height above the ground
+beneath it (the ``height`` block), which is what a flat ground would give: the terrain's shape
+is hidden, the height the trunk stands at is not."""
 
 
 class Blinded(Policy):
@@ -57,8 +58,8 @@ class Blinded(Policy):
         if unknown:
             raise ValueError(f"cannot blind {sorted(unknown)}; choose from {sorted(BLIND_VALUES)}")
         cols = privileged_columns(num_joints)
-        self.inner, self.blocks = inner, [(cols[b], BLIND_VALUES[b]) for b in blocks]
-        self.height = cols["height"]
+        fills = {b: cols[v] if isinstance(v, str) else v for b, v in BLIND_VALUES.items()}
+        self.inner, self.blocks = inner, [(cols[b], fills[b]) for b in blocks]
         self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
         self.name = f"{inner.name} blind to {', '.join(blocks)}"
 
@@ -68,7 +69,7 @@ class Blinded(Policy):
     def act(self, obs, ids, contexts):
         x = obs["teacher"].clone()
         for cols, value in self.blocks:
-            x[:, cols] = x[:, self.height] if isinstance(value, str) else value
+            x[:, cols] = x[:, value] if isinstance(value, slice) else value
         return self.inner.act({**obs, "teacher": x}, ids, contexts)
 
 
