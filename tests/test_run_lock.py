@@ -7,19 +7,31 @@ import os
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 
-from selfright.train.run_lock import LOCK_NAME, lock_holder, run_lock
+from selfright.train.run_lock import LOCK_NAME, _create_whole, lock_holder, run_lock
 
 
 def write_lock(out: Path, pid: int, host: str | None = None) -> None:
     (out / LOCK_NAME).write_text(json.dumps({"pid": pid, "host": host or socket.gethostname(), "since": "then"}))
 
 
+def started(argv: list[str]) -> subprocess.Popen:
+    """A child process, returned once it runs ``argv`` (until its execve ends, /proc shows no
+    command line, and the lock rightly cannot tell what the process is)."""
+    proc = subprocess.Popen(argv)
+    cmdline = Path(f"/proc/{proc.pid}/cmdline")
+    deadline = time.monotonic() + 10
+    while cmdline.exists() and argv[-1].encode() not in cmdline.read_bytes() and time.monotonic() < deadline:
+        time.sleep(0.001)
+    return proc
+
+
 def test_a_live_writer_keeps_others_out_and_the_lock_goes_with_it(tmp_path: Path):
-    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    sleeper = started([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
         write_lock(tmp_path, sleeper.pid)
         assert lock_holder(tmp_path)["pid"] == sleeper.pid
@@ -46,13 +58,23 @@ def test_a_lock_from_another_machine_or_torn_is_taken_over(tmp_path: Path):
 
 
 def test_a_pid_reused_by_another_program_is_stale(tmp_path: Path):
-    other = subprocess.Popen(["sleep", "60"])
+    other = started(["sleep", "60"])
     try:
         write_lock(tmp_path, other.pid)
         assert lock_holder(tmp_path) is None
     finally:
         other.kill()
         other.wait()
+
+
+def test_the_lock_appears_whole_and_leaves_no_scratch_file(tmp_path: Path):
+    with run_lock(tmp_path):
+        assert sorted(p.name for p in tmp_path.iterdir()) == [LOCK_NAME]
+        assert json.loads((tmp_path / LOCK_NAME).read_text())["pid"] == os.getpid()
+        with pytest.raises(FileExistsError):  # creation never replaces a lock that is there
+            _create_whole(tmp_path / LOCK_NAME, {"pid": 1, "host": "x"})
+        assert json.loads((tmp_path / LOCK_NAME).read_text())["pid"] == os.getpid()
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_lock_is_released_when_the_run_fails(tmp_path: Path):
@@ -65,7 +87,7 @@ def test_the_lock_is_released_when_the_run_fails(tmp_path: Path):
 def test_train_refuses_a_folder_another_process_writes_and_leaves_no_empty_folder(tmp_path: Path):
     from selfright.train.commands import TrainArgs, train
 
-    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    sleeper = started([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
         out = tmp_path / "busy"
         out.mkdir()

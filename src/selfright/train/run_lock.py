@@ -33,7 +33,9 @@ def _alive(pid: int) -> bool:
         pass
     try:
         cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
-    except OSError:
+        if not cmdline:  # a zombie, or a process inside execve (its new image not yet in place)
+            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
         return True  # no /proc (macOS) or not ours to read: trust the pid
     return b"python" in cmdline or b"selfright" in cmdline
 
@@ -50,6 +52,25 @@ def lock_holder(out: Path) -> dict | None:
     return rec
 
 
+def _create_whole(path: Path, record: dict) -> None:
+    """Create ``path`` holding ``record``, or raise ``FileExistsError``. The record is written to a
+    file of this process's own first and hard-linked into place, so another process never sees the
+    lock without its pid (which it would take for a torn, stale lock). Where the file system has no
+    hard links, the lock is created empty and then written (a window of microseconds)."""
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(record))
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        raise
+    except OSError:  # no hard links here (FAT, some network mounts)
+        fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        with os.fdopen(fd, "w") as fh:
+            json.dump(record, fh)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 @contextlib.contextmanager
 def run_lock(out: Path) -> Iterator[None]:
     """Hold ``out``'s lock for the block; raises ``ValueError`` if a live process holds it."""
@@ -57,7 +78,7 @@ def run_lock(out: Path) -> Iterator[None]:
     mine = {"pid": os.getpid(), "host": socket.gethostname(), "since": time.strftime("%Y-%m-%d %H:%M:%S")}
     for _ in range(2):
         try:
-            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            _create_whole(path, mine)
         except FileExistsError:
             holder = lock_holder(out)
             if holder is not None and holder["pid"] != os.getpid():
@@ -70,8 +91,6 @@ def run_lock(out: Path) -> Iterator[None]:
                 raise ValueError(f"{out} is already held by this process; runs into one folder cannot nest")
             path.unlink(missing_ok=True)  # stale: its process is gone, or it came from another machine
             continue
-        with os.fdopen(fd, "w") as fh:
-            json.dump(mine, fh)
         break
     else:  # pragma: no cover - another process took the stale lock between our two tries
         raise ValueError(f"{out}: another selfright train took the run folder as this one started; rerun")
