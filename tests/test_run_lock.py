@@ -67,6 +67,19 @@ def test_a_pid_reused_by_another_program_is_stale(tmp_path: Path):
         other.wait()
 
 
+def test_a_dead_process_not_yet_reaped_is_stale(tmp_path: Path):
+    zombie = subprocess.Popen(["true"])  # exits at once; its parent (this test) reaps it only at wait()
+    try:
+        stat = Path(f"/proc/{zombie.pid}/stat")
+        deadline = time.monotonic() + 10
+        while stat.exists() and stat.read_text().rsplit(")", 1)[1].split()[0] != "Z" and time.monotonic() < deadline:
+            time.sleep(0.001)
+        write_lock(tmp_path, zombie.pid)
+        assert lock_holder(tmp_path) is None
+    finally:
+        zombie.wait()
+
+
 def test_the_lock_appears_whole_and_leaves_no_scratch_file(tmp_path: Path):
     with run_lock(tmp_path):
         assert sorted(p.name for p in tmp_path.iterdir()) == [LOCK_NAME]
