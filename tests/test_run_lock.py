@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from selfright.train.run_lock import LOCK_NAME, _create_whole, lock_holder, run_lock
+from selfright.train.run_lock import LOCK_NAME, _create_whole, lock_holder, proc_state, run_lock
 
 
 def write_lock(out: Path, pid: int, host: str | None = None) -> None:
@@ -70,9 +70,8 @@ def test_a_pid_reused_by_another_program_is_stale(tmp_path: Path):
 def test_a_dead_process_not_yet_reaped_is_stale(tmp_path: Path):
     zombie = subprocess.Popen(["true"])  # exits at once; its parent (this test) reaps it only at wait()
     try:
-        stat = Path(f"/proc/{zombie.pid}/stat")
         deadline = time.monotonic() + 10
-        while stat.exists() and stat.read_text().rsplit(")", 1)[1].split()[0] != "Z" and time.monotonic() < deadline:
+        while proc_state(zombie.pid) != "Z" and time.monotonic() < deadline:
             time.sleep(0.001)
         write_lock(tmp_path, zombie.pid)
         assert lock_holder(tmp_path) is None

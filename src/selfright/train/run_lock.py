@@ -22,6 +22,12 @@ from typing import Iterator
 LOCK_NAME = "train.lock"
 
 
+def proc_state(pid: int) -> str:
+    """The one-letter state of ``pid`` in ``/proc/PID/stat`` (``Z`` for a zombie); the command
+    name before it is in parentheses and may itself hold spaces or parentheses."""
+    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+
+
 def _alive(pid: int) -> bool:
     """Whether ``pid`` runs and could be a ``selfright train`` (a Python process). Where
     ``/proc`` tells the command line, a process that is not Python is a reused pid: stale."""
@@ -34,7 +40,7 @@ def _alive(pid: int) -> bool:
     try:
         cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
         if not cmdline:  # a zombie, or a process inside execve (its new image not yet in place)
-            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+            return proc_state(pid) != "Z"
     except (OSError, IndexError):
         return True  # no /proc (macOS) or not ours to read: trust the pid
     return b"python" in cmdline or b"selfright" in cmdline
