@@ -6,6 +6,12 @@ also gets a linear probe: how much of the velocity a least-squares fit reads off
 hidden layer (fitted on three quarters of the envs, scored on the rest), i.e. how much of it
 the network represents on its own.
 
+``--target`` picks the privileged quantity instead of the velocity: ``height`` (trunk height
+above the ground beneath it) or ``bump`` (the ground beneath the trunk above the mean of the
+height scan's 0.6 m square around it: what a robot standing on a rough tile cannot read from its
+legs' kinematics). R² is also reported over the upright states alone (trunk within 30° of
+vertical), where the goal set's height bar is decided.
+
 With ``--fit-histories H ...`` it also asks what the student's sensors allow: fresh estimators
 of the same network, each reading the last H student frames, are fitted offline to the same
 rollouts (three quarters of the envs) and scored on the rest, so a longer history or another
@@ -14,12 +20,15 @@ network can be judged without training a student.
     python scripts/estimator_accuracy.py --checkpoint runs/incline_student_vel/model_299.pt --context incline
     python scripts/estimator_accuracy.py --checkpoint runs/incline_student_vel/model_299.pt --fit-histories 1 5 25 50 100
     python scripts/estimator_accuracy.py --checkpoint runs/incline_student_tilt45_big/model_299.pt   # probe only
+    python scripts/estimator_accuracy.py --checkpoint runs/gpu_rough_h25w/model_721.pt --context rough --target bump --fit-histories 1 25 50
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import torch
 import tyro
@@ -53,6 +62,24 @@ class Args:
     """Hidden widths of those estimators."""
     fit_epochs: int = 30
     """Passes over the fitting envs' states."""
+    target: Literal["velocity", "height", "bump"] = "velocity"
+    """Privileged quantity to estimate (a student's own estimator, if any, is scored on the
+    velocity only)."""
+
+
+UPRIGHT_COS = math.cos(math.radians(30.0))
+"""Upright states: trunk up axis within 30° of world z (the goal set's tilt bound)."""
+
+
+def target_values(teacher_obs: torch.Tensor, num_joints: int, target: str) -> torch.Tensor:
+    """(k, d) the privileged ``target`` read off teacher observations (k, D)."""
+    cols = privileged_columns(num_joints)
+    if target == "velocity":
+        return teacher_obs[:, cols["velocity"]]
+    height = teacher_obs[:, cols["height"]]
+    if target == "height":
+        return height
+    return teacher_obs[:, cols["scan"]].mean(-1, keepdim=True) - height  # ground beneath - mean ground around
 
 
 def main(args: Args) -> None:
@@ -61,11 +88,13 @@ def main(args: Args) -> None:
         raise SystemExit(f"estimator_accuracy: {ckpt} is a recurrent student; it reads feed-forward ones")
     pol = read_meta(ckpt.parent).get("policy") or {}
     bench = BenchmarkConfig(action=ActionConfig(reference=pol.get("action_reference", "stand")))
+    if actor.meta.motor == "dcmotor":  # roll out on the motors it trained with
+        bench = replace(bench, robot=replace(bench.robot, motor="dcmotor",
+                                             motor_speed_rad_s=actor.meta.motor_speed_rad_s or None))
     train = TrainConfig(distillation=DistillationConfig(student_history=actor.meta.obs_history))
     env = RecoveryVecEnv(bench, train, make_training_worlds(args.context, bench, args.seed), args.envs, seed=args.seed)
     group = "student_history" if actor.meta.obs_history > 1 else "student"
-    cols = privileged_columns(env.num_actions)["velocity"]
-    est, hidden, true, frames, starts = [], [], [], [], []
+    est, hidden, true, frames, starts, vel = [], [], [], [], [], []
     last_hidden = actor.mlp[:-1]
     fresh = torch.ones(args.envs, dtype=torch.bool)
     with torch.no_grad():
@@ -75,34 +104,44 @@ def main(args: Args) -> None:
             z = actor._normalize(x)
             if actor.estimator is not None:
                 est.append(actor.estimate_rows(x))
+                vel.append(target_values(obs["teacher"], env.num_actions, "velocity"))
                 z = torch.cat([z, est[-1]], dim=-1)
             hidden.append(last_hidden(z))
-            true.append(obs["teacher"][:, cols])
+            true.append(target_values(obs["teacher"], env.num_actions, args.target))
             frames.append(obs["student"])
             starts.append(fresh)
             _, _, dones, _ = env.step(actor(x))
             fresh = dones.bool().cpu()
     env.close()
     t = torch.cat(true)
-    var = t.var(0, unbiased=False)
-    print(f"{len(t):,} states of {ckpt} on {args.context} (seed {args.seed})")
+    f, st = torch.stack(frames), torch.stack(starts)  # (T, N, ...)
+    upright = f[..., 2] < -UPRIGHT_COS  # projected gravity's z: the IMU's tilt
+    print(f"{len(t):,} states of {ckpt} on {args.context} (seed {args.seed}), "
+          f"{upright.float().mean():.1%} upright; target {args.target}: std {t.std(0, unbiased=False).tolist()}")
     if est:
-        mse = (torch.cat(est) - t).pow(2).mean(0)
+        v = torch.cat(vel)
+        var = v.var(0, unbiased=False)
+        mse = (torch.cat(est) - v).pow(2).mean(0)
         for i, axis in enumerate("xyz"):
             print(f"  v_{axis}: true std {var[i].sqrt():.3f} m/s, RMS error {mse[i].sqrt():.3f} m/s, R² {1 - mse[i] / var[i]:.3f}")
         print(f"  all: mean squared error {mse.mean():.4f} (m/s)², R² {1 - mse.sum() / var.sum():.3f}")
     else:
         print("  (no velocity estimator)")
-    r2 = linear_probe(torch.stack(hidden), torch.stack(true))
-    print(f"linear probe of the last hidden layer ({hidden[0].shape[-1]} units), R² on held-out envs (x, y, z / all): "
-          + ", ".join(f"{r:.3f}" for r in r2[:3]) + f" / {r2[3]:.3f}")
+    y = torch.stack(true)
+    r2, r2_up = linear_probe(torch.stack(hidden), y, upright)
+    print(f"linear probe of the last hidden layer ({hidden[0].shape[-1]} units), R² on held-out envs "
+          f"(per output / all; upright states: all): {_r2_text(r2)}; {r2_up[-1]:.3f}")
     if args.fit_histories:
         print(f"estimators fitted offline ({'-'.join(map(str, args.fit_dims))} units, {args.fit_epochs} epochs), "
-              f"R² on held-out envs (x, y, z / all):")
-        f, v, st = torch.stack(frames), torch.stack(true), torch.stack(starts)  # (T, N, ...)
+              f"R² on held-out envs (per output / all; upright states: all):")
         for h in args.fit_histories:
-            r2 = fit_offline(stacked(f, st, h), v, args.fit_dims, args.fit_epochs, args.seed)
-            print(f"  {h:4d} frames: " + ", ".join(f"{r:.3f}" for r in r2[:3]) + f" / {r2[3]:.3f}")
+            r2, r2_up = fit_offline(stacked(f, st, h), y, upright, args.fit_dims, args.fit_epochs, args.seed)
+            print(f"  {h:4d} frames: {_r2_text(r2)}; {r2_up[-1]:.3f}")
+
+
+def _r2_text(r2: list[float]) -> str:
+    per = r2[:-1] if len(r2) > 2 else []
+    return (", ".join(f"{r:.3f}" for r in per) + " / " if per else "") + f"{r2[-1]:.3f}"
 
 
 def stacked(frames: torch.Tensor, starts: torch.Tensor, h: int) -> torch.Tensor:
@@ -119,7 +158,9 @@ def stacked(frames: torch.Tensor, starts: torch.Tensor, h: int) -> torch.Tensor:
 
 
 def held_out_r2(pred: torch.Tensor, y: torch.Tensor) -> list[float]:
-    """R² of ``pred`` against ``y`` (k, 3) per output, then overall."""
+    """R² of ``pred`` against ``y`` (k, d) per output, then overall (NaN for no states)."""
+    if len(y) == 0:
+        return [math.nan] * (y.shape[-1] + 1)
     err = (pred - y).pow(2).mean(0)
     var = y.var(0, unbiased=False)
     return [*(1 - err / var).tolist(), float(1 - err.sum() / var.sum())]
@@ -131,17 +172,23 @@ def split_envs(x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return x[:, :split].flatten(0, 1), x[:, split:].flatten(0, 1)
 
 
-def linear_probe(h: torch.Tensor, y: torch.Tensor) -> list[float]:
-    """Least-squares fit ``y ≈ [h, 1] W`` on the fitting envs, R² on the held-out ones."""
+def held_out_scores(pred: torch.Tensor, y: torch.Tensor, upright: torch.Tensor) -> tuple[list[float], list[float]]:
+    """``held_out_r2`` over all held-out states, and over the upright ones (``upright`` (k,) bool)."""
+    return held_out_r2(pred, y), held_out_r2(pred[upright], y[upright])
+
+
+def linear_probe(h: torch.Tensor, y: torch.Tensor, upright: torch.Tensor) -> tuple[list[float], list[float]]:
+    """Least-squares fit ``y ≈ [h, 1] W`` on the fitting envs, R² on the held-out ones (all, upright)."""
     (htr, hte), (ytr, yte) = split_envs(h), split_envs(y)
     ones = lambda a: torch.cat([a, torch.ones(len(a), 1)], dim=-1)  # noqa: E731
     w = torch.linalg.lstsq(ones(htr).double(), ytr.double()).solution
-    return held_out_r2((ones(hte).double() @ w).float(), yte)
+    return held_out_scores((ones(hte).double() @ w).float(), yte, split_envs(upright)[1])
 
 
-def fit_offline(x: torch.Tensor, y: torch.Tensor, dims: tuple[int, ...], epochs: int, seed: int) -> list[float]:
+def fit_offline(x: torch.Tensor, y: torch.Tensor, upright: torch.Tensor, dims: tuple[int, ...], epochs: int,
+                seed: int) -> tuple[list[float], list[float]]:
     """Fit an MLP ``x -> y`` on the first three quarters of the envs (axis 1), score R² per
-    output and overall on the rest."""
+    output and overall on the rest, over all its states and the upright ones (``upright`` (T, N))."""
     from torch import nn
 
     (xtr, xte), (ytr, yte) = split_envs(x), split_envs(y)
@@ -157,7 +204,7 @@ def fit_offline(x: torch.Tensor, y: torch.Tensor, dims: tuple[int, ...], epochs:
             loss.backward()
             opt.step()
     with torch.no_grad():
-        return held_out_r2(net((xte - mean) / std), yte)
+        return held_out_scores(net((xte - mean) / std), yte, split_envs(upright)[1])
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ what the trained model does, and a distillation run that trains, saves and resum
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 
 import numpy as np
@@ -126,6 +127,12 @@ def test_student_run_trains_saves_and_resumes_its_estimator(tmp_path: Path, monk
                                          "--steps", "12", "--fit-histories", "1", "2", "--fit-epochs", "1"], monkeypatch)
     out = capsys.readouterr().out
     assert "48 states" in out and out.count("R²") == 6 and "linear probe" in out and "   2 frames:" in out
+    # Another privileged target: the ground beneath the trunk against the scan's mean, one value.
+    run_script("estimator_accuracy.py", ["--checkpoint", str(student), "--context", "flat", "--envs", "4",
+                                         "--steps", "12", "--fit-histories", "1", "--fit-epochs", "1",
+                                         "--target", "bump"], monkeypatch)
+    out = capsys.readouterr().out
+    assert "target bump" in out and "upright" in out and re.search(r"   1 frames: (-?[\d.]+|nan); (-?[\d.]+|nan)", out)
     run_script("policy_variants.py", ["--policies", str(teacher), "--estimate-first", str(student), "--grid", "tiny",
                                       "--episodes", "1", "--out", str(tmp_path / "estimated")], monkeypatch)
     assert "velocity estimate) on tiny" in capsys.readouterr().out
