@@ -20,6 +20,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --grid rough --seed 4 --out results/rough_pose_s4
     python scripts/policy_variants.py --policies incline --side-mirror 1 --grid incline \\
         --seed 20 --out results/incline_side_s20
+    python scripts/policy_variants.py --policies incline-dc --envelope-speed-rad-s 15 --grid incline \\
+        --seed 4 --out results/incline_dc_v15_s4
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
 ``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
@@ -115,6 +117,10 @@ class Args:
     """+1 or -1: act in the mirror image of the world unless the projected gravity's body y
     component has this sign when control starts, so that the ground falls away to the same
     side of the trunk in every episode (``selfright.policies.variants.SideMirrored``); 0 = off."""
+    envelope_speed_rad_s: float | None = None
+    """Hold every policy to the DC torque-speed envelope of motors with this no-load speed (rad/s)
+    on the ideal servos (``selfright.policies.torque_envelope``), instead of a DC-trained policy's
+    own training speed; None = as ``selfright evaluate``."""
     threads: int = 0
     """Physics worker threads; 0 = one per CPU core."""
     smooth_last: bool = False
@@ -153,8 +159,8 @@ def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if a.noise_scale > 0:
         if len(a.policies) != 1:
             raise ValueError("--noise-scale takes one policy")
-        return Noisy(make_policy(a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
-    members = [make_policy(p, cfg) for p in a.policies]
+        return Noisy(load_member(a, a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
+    members = [load_member(a, p, cfg) for p in a.policies]
     if a.blind_first:
         members[0] = Blinded(members[0], a.blind_first)
     if a.estimate_first:
@@ -174,6 +180,19 @@ def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
             members[-1] = Smoothed(members[-1], a.smooth)
         return Fallback(*members, rule, feed_both=a.feed_both or a.smooth_last)
     return members[0] if len(members) == 1 else MeanOf(members)
+
+
+def load_member(a: Args, name: str, cfg: BenchmarkConfig) -> Policy:
+    """Policy ``name`` as ``selfright evaluate`` runs it, or with ``--envelope-speed-rad-s`` held
+    to the DC envelope of that speed whatever motor it trained with."""
+    if a.envelope_speed_rad_s is None:
+        return make_policy(name, cfg)
+    from selfright.policies.torque_envelope import TorqueEnvelope
+
+    if cfg.robot.motor != "ideal":
+        raise ValueError("--envelope-speed-rad-s runs on the ideal servos")
+    motor = replace(cfg.robot, motor_speed_rad_s=a.envelope_speed_rad_s)
+    return TorqueEnvelope(make_policy(name, cfg, envelope=False), get_robot(cfg.robot.name), cfg.action, motor)
 
 
 def estimated_first(teacher: str, student: str, cfg: BenchmarkConfig) -> Policy:
@@ -219,6 +238,7 @@ def main(a: Args) -> None:
     name += (f" (stance {a.pose_upright} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
     name += f" (mirrored unless gravity's body y is {a.side_mirror:+d} at the start)" if a.side_mirror else ""
+    name += f" (DC envelope at {a.envelope_speed_rad_s:g} rad/s)" if a.envelope_speed_rad_s is not None else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,
                         out_dir=a.out, cfg=cfg, progress=True)
     o = res.summary["overall"]

@@ -383,3 +383,15 @@ def test_train_tiles_swaps_in_the_training_tiles_or_fresh_draws(tmp_path, monkey
     trained = make_training_worlds("rough", BenchmarkConfig(), seed=0)
     assert rs["train"]["12"] == pytest.approx(trained[6].tile.roughness(), rel=1e-3)  # 0.306 m, nearest level 12
     assert all(rs["train"][k] != pytest.approx(rs["fresh"][k], rel=1e-3) for k in rs["train"])
+
+
+def test_policy_variants_envelope_speed_is_the_trained_one_by_default_and_cuts_a_slower_one(tmp_path, monkeypatch, capsys):
+    """``--envelope-speed-rad-s`` at a DC policy's own training speed runs it as ``selfright
+    evaluate`` does; a slower envelope changes its episodes."""
+    common = ["--policies", "rough", "--grid", "tiny", "--episodes", "2", "--seed", "1"]
+    outs = {tag: tmp_path / tag for tag in ("own", "v21", "v8")}
+    for tag, extra in [("own", []), ("v21", ["--envelope-speed-rad-s", "21"]), ("v8", ["--envelope-speed-rad-s", "8"])]:
+        run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
+    assert "DC envelope at 8 rad/s" in capsys.readouterr().out
+    assert episode_rows(outs["v21"]) == episode_rows(outs["own"])
+    assert episode_rows(outs["v8"]) != episode_rows(outs["own"])
