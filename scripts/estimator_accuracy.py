@@ -68,7 +68,7 @@ class Args:
 
 
 UPRIGHT_COS = math.cos(math.radians(30.0))
-"""Upright states: trunk up axis within 30° of world z (the goal set's tilt bound)."""
+"""Upright states: trunk up axis within 30° of world z (the goal set bounds roll and pitch by 30° each)."""
 
 
 def target_values(teacher_obs: torch.Tensor, num_joints: int, target: str) -> torch.Tensor:

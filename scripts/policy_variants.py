@@ -189,8 +189,6 @@ def load_member(a: Args, name: str, cfg: BenchmarkConfig) -> Policy:
         return make_policy(name, cfg)
     from selfright.policies.torque_envelope import TorqueEnvelope
 
-    if cfg.robot.motor != "ideal":
-        raise ValueError("--envelope-speed-rad-s runs on the ideal servos")
     motor = replace(cfg.robot, motor_speed_rad_s=a.envelope_speed_rad_s)
     return TorqueEnvelope(make_policy(name, cfg, envelope=False), get_robot(cfg.robot.name), cfg.action, motor)
 
