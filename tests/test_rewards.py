@@ -192,16 +192,17 @@ def test_upright_spin_term_is_off_by_default_and_charges_spin_only_near_upright(
     torch.testing.assert_close(terms["upright_spin"], total - base)
 
 
-def test_refall_is_an_event_term_paid_once_not_per_second():
+@pytest.mark.parametrize(("term", "field", "event"), [("refall", "refell", R.refall_event), ("off_tile", "left_tile", R.off_tile_event)])
+def test_event_terms_are_paid_once_not_per_second(term, field, event):
     rs = make_state()
     ctx = R.RewardContext(
         action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
-        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, refell=torch.tensor([True, False, False]),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, **{field: torch.tensor([True, False, False])},
     )
-    torch.testing.assert_close(R.refall_event(ctx.refell), torch.tensor([-1.0, 0.0, 0.0]))
+    torch.testing.assert_close(event(getattr(ctx, field)), torch.tensor([-1.0, 0.0, 0.0]))
     base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
-    assert "refall" not in terms  # Table I exactly
-    total, terms = R.weighted_rewards(rs, ctx, RewardConfig(refall=20.0), 0.02)
+    assert term not in terms  # Table I exactly
+    total, terms = R.weighted_rewards(rs, ctx, RewardConfig(**{term: 20.0}), 0.02)
     torch.testing.assert_close(total - base, torch.tensor([-20.0, 0.0, 0.0]))
-    with pytest.raises(ValueError, match="RewardContext.refell"):
-        R.weighted_rewards(rs, dataclasses.replace(ctx, refell=None), RewardConfig(refall=20.0), 0.02)
+    with pytest.raises(ValueError, match=f"RewardContext.{field}"):
+        R.weighted_rewards(rs, dataclasses.replace(ctx, **{field: None}), RewardConfig(**{term: 20.0}), 0.02)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from selfright.config import BenchmarkConfig
+from selfright.config import BenchmarkConfig, RewardConfig
 from selfright.env.randomization import ModelRandomizer, sample_factors
 from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
@@ -107,7 +107,8 @@ def test_time_out_resets_and_is_reported(flat_worlds):
 def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
     """Off the tile the episode ends; by default as a bootstrapped time-out, not a terminal
     state that would pay a robot with negative returns for rolling away."""
-    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(off_tile_is_timeout=as_timeout))
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(off_tile_is_timeout=as_timeout),
+                                reward=RewardConfig(off_tile=30.0))
     env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
     x = env.env.sl.pos.start
     env.env.state[0, x] = CFG.terrain.tile_size_m / 2 - 0.1  # inside the edge margin
@@ -116,6 +117,7 @@ def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
     assert dones.tolist() == [True, False]
     assert extras["time_outs"].tolist() == [as_timeout, False]
     assert float(extras["log"]["Episode/left_tile_rate"]) == 1.0
+    assert float(extras["log"]["Reward/off_tile"]) == -30.0 / 2  # the event term, paid by the leaver only
     env.close()
 
 

@@ -216,6 +216,14 @@ class RewardConfig:
     last re-fall or the episode's start. Most of the incline's failures are such re-falls: a
     stand-up that carries on past upright and down the slope (docs/training.md). The default
     0 trains on Table I exactly; a positive weight is an ablation."""
+    off_tile: float = 0.0
+    """**Not in Table I.** Penalty paid once when the robot leaves its tile (an event term: the
+    weight is not multiplied by dt), which the benchmark scores as a failure. Use it with
+    ``EpisodeConfig.off_tile_is_timeout`` off: leaving then ends the episode as a terminal state
+    worth −``off_tile`` instead of 0, so a robot lying near the edge, where Table I pays less
+    than 0 per step, no longer gains from rolling off it (docs/training.md, *A penalty for
+    leaving the tile*). The default 0 trains on Table I exactly; a positive weight is an
+    ablation."""
     refall_tilt_deg: float = 90.0
     """With ``refall`` (or ``EpisodeConfig.terminate_on_refall``): the tilt of the up axis from
     vertical that counts as having fallen again (deg)."""

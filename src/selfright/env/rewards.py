@@ -112,6 +112,13 @@ def refall_event(refell: torch.Tensor) -> torch.Tensor:
     return -refell.float()
 
 
+def off_tile_event(left_tile: torch.Tensor) -> torch.Tensor:
+    """(n,) −1 where the robot has just left its tile (``left_tile``, (n,) bool, which ends the
+    episode), else 0. Not a Table I term: an event term, paid once, with a nonzero
+    ``RewardConfig.off_tile`` weight (ablations)."""
+    return -left_tile.float()
+
+
 def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
     """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
     above the ground beneath as z is, of a robot standing square to the slope with its trunk
@@ -141,6 +148,8 @@ class RewardContext:
     """(n,) bool, in the goal set after this step (needed only by the ``goal_set`` term)."""
     refell: torch.Tensor | None = None
     """(n,) bool, fell again this step after having been upright (needed only by ``refall``)."""
+    left_tile: torch.Tensor | None = None
+    """(n,) bool, left the tile this step (needed only by ``off_tile``)."""
 
 
 def _needs(value: torch.Tensor | None, term: str, field: str) -> torch.Tensor:
@@ -155,10 +164,11 @@ OPTIONAL_TERMS: dict[str, OptionalTerm] = {
     "stance": lambda rs, ctx, cfg: stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq),
     "upright_spin": lambda rs, ctx, cfg: upright_spin_l2(rs, cfg.upright_spin_tilt_deg),
     "refall": lambda rs, ctx, cfg: refall_event(_needs(ctx.refell, "refall", "refell")),
+    "off_tile": lambda rs, ctx, cfg: off_tile_event(_needs(ctx.left_tile, "off_tile", "left_tile")),
 }
 """Terms outside Table I, each computed only where its ``RewardConfig`` weight (the field of
 the same name) is nonzero; the default config trains on Table I exactly."""
-EVENT_TERMS = frozenset({"refall"})
+EVENT_TERMS = frozenset({"refall", "off_tile"})
 """Terms paid once per event: weighted w · r, not w · r · dt."""
 
 

@@ -265,7 +265,7 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
 
 OWN_WORDS = (
     "goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq", "upright_spin", "upright_spin_tilt_deg",
-    "refall", "refall_tilt_deg",
+    "refall", "refall_tilt_deg", "off_tile",
 )
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
@@ -304,6 +304,8 @@ def reward_summary(meta: dict[str, Any]) -> str:
     refall_tilt = reward.get("refall_tilt_deg", table.refall_tilt_deg)
     if reward.get("refall"):
         changed.append(f"re-fall penalty {reward['refall']} per tip past {refall_tilt}° after upright (not in Table I)")
+    if reward.get("off_tile"):
+        changed.append(f"penalty {reward['off_tile']} for leaving the tile (not in Table I)")
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""

@@ -360,6 +360,8 @@ class RecoveryVecEnv(VecEnv):
             actions = self.action_override(self._obs["teacher"], actions)
         out = env.step(actions.detach().cpu())
         refell = self._refell(out.state)
+        diverged = env.diverged
+        left_tile = out.failed & ~diverged
         ctx = RewardContext(
             action=env.prev_action,  # the clipped action just applied
             prev_action=prev_action,
@@ -369,6 +371,7 @@ class RecoveryVecEnv(VecEnv):
             target_height_m=self.world_target_m[torch.from_numpy(env.world_idx)],
             in_goal=out.in_goal,
             refell=refell,
+            left_tile=left_tile,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
@@ -379,8 +382,6 @@ class RecoveryVecEnv(VecEnv):
         if self.track_tail:
             in_tail = self.episode_length_buf > self.max_episode_length - self.window
             self.tail_goal_steps += (out.in_goal & in_tail).long()
-        diverged = env.diverged
-        left_tile = out.failed & ~diverged
         terminated = out.failed & diverged
         ep = self.train_cfg.episode
         if not ep.off_tile_is_timeout:
