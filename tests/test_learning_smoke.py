@@ -310,6 +310,9 @@ def test_model_card_reward_line_flags_anything_but_table_i():
                                                                "episode": {"terminate_on_refall": True}}})
     assert "re-fall penalty 20.0 per tip past 90.0° after upright (not in Table I)" in line
     assert line.endswith("; training episodes ended as terminal at a tip past 90.0° after upright (not in the seed)")
+    line = reward_summary({"role": "teacher", "train_config": {"reward": {**table, "off_tile": 30.0}}})
+    assert line.startswith("**not** the seed's Table I") and "penalty 30.0 for leaving the tile (not in Table I)" in line
+    assert "off_tile" not in line  # worded, not listed as a changed Table I weight
     assert reward_summary({"role": "teacher"}).startswith("unknown")
     ended = {"reward": {**table, "target_height_m": 0.37}, "episode": {"terminate_low_stance_s": 1.0}}
     assert reward_summary({"role": "teacher", "train_config": ended}) == (

@@ -106,7 +106,8 @@ def test_time_out_resets_and_is_reported(flat_worlds):
 @pytest.mark.parametrize("as_timeout", [True, False])
 def test_leaving_the_tile_ends_as_a_time_out(flat_worlds, as_timeout):
     """Off the tile the episode ends; by default as a bootstrapped time-out, not a terminal
-    state that would pay a robot with negative returns for rolling away."""
+    state that would pay a robot with negative returns for rolling away. The opt-in off-tile
+    penalty is charged to the robot that leaves, and to no other."""
     train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(off_tile_is_timeout=as_timeout),
                                 reward=RewardConfig(off_tile=30.0))
     env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
