@@ -313,6 +313,12 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     line = reward_summary({"role": "teacher", "train_config": {"reward": {**table, "off_tile": 30.0}}})
     assert line.startswith("**not** the seed's Table I") and "penalty 30.0 for leaving the tile (not in Table I)" in line
     assert "off_tile" not in line  # worded, not listed as a changed Table I weight
+    edge = {"reward": {**table, "off_tile": 30.0}, "episode": {"off_tile_is_timeout": False}}
+    assert reward_summary({"role": "teacher", "train_config": edge}).endswith(
+        "; leaving the tile ended training episodes as terminal, not as a time-out (the project's default)"
+    )
+    edge["episode"]["off_tile_is_timeout"] = True
+    assert "leaving the tile ended" not in reward_summary({"role": "teacher", "train_config": edge})
     assert reward_summary({"role": "teacher"}).startswith("unknown")
     ended = {"reward": {**table, "target_height_m": 0.37}, "episode": {"terminate_low_stance_s": 1.0}}
     assert reward_summary({"role": "teacher", "train_config": ended}) == (
