@@ -20,6 +20,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --grid rough --seed 4 --out results/rough_pose_s4
     python scripts/policy_variants.py --policies incline --side-mirror 1 --grid incline \\
         --seed 20 --out results/incline_side_s20
+    python scripts/policy_variants.py --policies incline --brake-pose 0 0.46 0.46 -0.92 --grid incline \\
+        --seed 4 --out results/incline_brake_s4
     python scripts/policy_variants.py --policies incline-dc --envelope-speed-rad-s 15 --grid incline \\
         --seed 4 --out results/incline_dc_v15_s4
 
@@ -39,11 +41,11 @@ from selfright.config import BenchmarkConfig
 from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
-from selfright.policies.pose_blend import stance_action
+from selfright.policies.pose_blend import splayed_action, stance_action
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import (
-    Blinded, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, SideMirrored, Smoothed, trained_std,
+    Blinded, Braked, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, SideMirrored, Smoothed, trained_std,
 )
 from selfright.robots import get_robot
 
@@ -117,6 +119,17 @@ class Args:
     """+1 or -1: act in the mirror image of the world unless the projected gravity's body y
     component has this sign when control starts, so that the ground falls away to the same
     side of the trunk in every episode (``selfright.policies.variants.SideMirrored``); 0 = off."""
+    brake_pose: tuple[float, float, float, float] | None = None
+    """Hip abduction away from the body, front thigh, rear thigh and knee angles (rad) that a
+    robot tumbling over again after getting up holds until it lies still
+    (``selfright.policies.variants.Braked``): e.g. ``0 0.46 0.46 -0.92`` (the tall stance) or
+    ``0.8 -1.0 1.5 -0.92`` (legs splayed out, fore and aft); None = off."""
+    brake_tilt_deg: float = 60.0
+    """With ``brake_pose``: the tilt past which a robot that has been upright within 45° brakes (deg)."""
+    brake_spin_rps: float = 0.0
+    """With ``brake_pose``: brake only while the trunk turns faster than this (rad/s)."""
+    brake_release_rps: float = 1.0
+    """With ``brake_pose``: the brake ends after 0.2 s under this angular speed (rad/s), or after 2 s."""
     envelope_speed_rad_s: float | None = None
     """Hold every policy to the DC torque-speed envelope of motors with this no-load speed (rad/s)
     on the ideal servos (``selfright.policies.torque_envelope``), instead of a DC-trained policy's
@@ -148,6 +161,10 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
                              cols, stance_action(robot, cfg.action, a.pose_upright)[cols],
                              round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}",
                              weight=a.pose_upright_weight)
+    if a.brake_pose is not None:
+        policy = Braked(policy, splayed_action(robot, cfg.action, *a.brake_pose),
+                        tilt_deg=a.brake_tilt_deg, spin_rps=a.brake_spin_rps, release_rps=a.brake_release_rps,
+                        calm_steps=max(1, round(0.2 / dt)), max_steps=max(1, round(2.0 / dt)))
     if a.side_mirror:
         policy = SideMirrored(policy, a.side_mirror, cfg.robot.name)
     return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
@@ -235,6 +252,8 @@ def main(a: Args) -> None:
     name += f" ({a.pose_upright_weight:g} of the way)" if a.pose_upright_weight != 1.0 else ""
     name += (f" (stance {a.pose_upright} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
+    name += (f" (braked to {a.brake_pose} past {a.brake_tilt_deg:g} deg after upright)"
+             if a.brake_pose is not None else "")
     name += f" (mirrored unless gravity's body y is {a.side_mirror:+d} at the start)" if a.side_mirror else ""
     name += f" (DC envelope at {a.envelope_speed_rad_s:g} rad/s)" if a.envelope_speed_rad_s is not None else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,

@@ -435,6 +435,50 @@ def test_pose_upright_ramps_only_its_columns_of_upright_slots():
             PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0, -1.0], weight=bad)
 
 
+def test_braked_holds_its_pose_from_a_re_fall_until_the_trunk_is_still():
+    from selfright.policies.variants import Braked
+
+    class _Ones(Policy):
+        def act(self, obs, ids, contexts):
+            return torch.ones(len(ids), 12)
+
+    def obs(gz, spin):  # projected gravity's z (−1 upright, 0 on its side) and the trunk's angular speed
+        x = torch.zeros(1, 42)
+        x[0, 2], x[0, 3] = gz, spin
+        return {"student": x}
+
+    pose = torch.full((12,), -2.0)
+    p = Braked(_Ones(), pose, arm_deg=45.0, tilt_deg=60.0, spin_rps=3.0, release_rps=1.0, calm_steps=2, max_steps=5)
+    ids = np.array([0])
+    p.reset(ids)
+    act = lambda gz, spin: p.act(obs(gz, spin), ids, [None])[0, 0].item()  # noqa: E731
+    assert act(0.0, 5.0) == 1.0  # tumbling before ever being upright: the policy's own get-up
+    assert act(-1.0, 5.0) == 1.0  # upright: armed
+    assert act(0.0, 1.0) == 1.0  # tilted over, but turning slowly
+    assert [act(0.0, 5.0), act(0.0, 0.5), act(0.0, 0.5), act(0.0, 0.5)] == [-2.0, -2.0, 1.0, 1.0]  # still 2 steps: done
+    assert act(0.0, 5.0) == 1.0  # not again until upright again
+    act(-1.0, 0.0)
+    assert [act(0.0, 5.0) for _ in range(7)] == [-2.0] * 5 + [1.0] * 2  # never still: released after max_steps
+    assert p.brakes == 2
+    p.reset(ids)
+    assert act(0.0, 5.0) == 1.0  # a new episode is not armed
+    with pytest.raises(ValueError, match="arm_deg"):
+        Braked(_Ones(), pose, arm_deg=60.0, tilt_deg=45.0)
+
+
+def test_splayed_action_turns_the_hips_out_on_both_sides():
+    from selfright.config import ActionConfig
+    from selfright.policies.pose_blend import splayed_action
+    from selfright.robots import get_robot
+
+    robot, mapping = get_robot("a1"), ActionConfig(reference="stand", scale_rad=0.5)
+    a = splayed_action(robot, mapping, 0.5, -0.2, 1.5, -9.0)
+    q = robot.reference_pose("stand") + 0.5 * a
+    assert np.allclose(q[[0, 6]], -0.5) and np.allclose(q[[3, 9]], 0.5)  # FR, RR right; FL, RL left
+    assert np.allclose(q[[1, 4]], -0.2) and np.allclose(q[[7, 10]], 1.5)
+    assert np.allclose(q[2::3], robot.joint_low[2::3])  # knees clipped to their range
+
+
 def test_side_mirrored_decides_once_per_episode_from_gravity_and_mirrors_both_ways():
     from selfright.policies.variants import SideMirrored
     from selfright.train.symmetry import group_mirrors, mirror

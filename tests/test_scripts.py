@@ -269,11 +269,13 @@ def test_policy_variants_noise_is_seeded_an_ensemble_of_one_policy_is_that_polic
                        ("mean", ["--policies", str(ckpt)]), ("zero", ["--policies", "zero"]), ("zz", ["--policies", "zero", "zero"]),
                        ("fb", ["--policies", "zero", "random", "--fallback-s", "2"]),
                        ("rand", ["--policies", "random"]), ("smooth", ["--policies", "random", "--smooth", "0.9"]),
-                       ("fb_smooth", ["--policies", "zero", "random", "--fallback-s", "2", "--smooth", "0.9", "--smooth-last"])]:
+                       ("fb_smooth", ["--policies", "zero", "random", "--fallback-s", "2", "--smooth", "0.9", "--smooth-last"]),
+                       ("brake", ["--policies", "random", "--brake-pose", "0", "0.46", "0.46", "-0.92", "--brake-tilt-deg", "90"])]:
         outs[tag] = tmp_path / tag
         run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
     printed = capsys.readouterr().out
     assert "noise x1" in printed and "low-passed, beta 0.9" in printed
+    assert "braked to (0.0, 0.46, 0.46, -0.92) past 90 deg after upright" in printed
     assert episode_rows(outs["smooth"]) != episode_rows(outs["rand"])  # the filter changes what the random policy does
     assert episode_rows(outs["fb_smooth"]) != episode_rows(outs["fb"])  # the same filter on the fallback alone
     with pytest.raises(SystemExit, match="--smooth-last takes"):

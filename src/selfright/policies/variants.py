@@ -1,12 +1,14 @@
 """Policies built from other policies, for analysis (none ships): one that samples its
 actions from its training noise instead of acting with the mean, an ensemble acting with the
 mean of its members' actions, one whose actions are low-passed, one whose joints are
-blended to a fixed pose once upright (the hips to 0, or a whole stance), and one that hands over to a second policy when it stalls or
+blended to a fixed pose once upright (the hips to 0, or a whole stance), one that holds a fixed pose
+while it tumbles over again after getting up, and one that hands over to a second policy when it stalls or
 while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labelled the shipped
 ``flat`` student's distillation)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -196,6 +198,60 @@ class PoseUpright(Policy):
         up = ~self._tilted.step(obs["student"], t)
         self._upright_steps[t] = upright_count(self._upright_steps[t], up)
         return pose_blend(a, self._upright_steps[t], self.delay, self.ramp, self.target, self.cols, self.weight)
+
+
+class Braked(Policy):
+    """``inner``, except that a robot tumbling over again after getting up holds a fixed
+    ``pose`` (actions) until it lies still: once a slot's trunk has been upright within
+    ``arm_deg`` (the IMU's projected gravity), a tilt past ``tilt_deg`` while the trunk turns
+    faster than ``spin_rps`` starts the brake; it ends after ``calm_steps`` control steps in a
+    row under ``release_rps`` or after ``max_steps``, and the slot must come upright again
+    before it can brake again. Asks whether a reflex that stops the roll keeps the incline's
+    re-falls on the tile (``scripts/policy_variants.py --brake-pose``). Sensor-only."""
+
+    def __init__(self, inner: Policy, pose: Sequence[float], arm_deg: float = 45.0, tilt_deg: float = 60.0,
+                 spin_rps: float = 0.0, release_rps: float = 1.0, calm_steps: int = 10, max_steps: int = 100):
+        if not 0.0 < arm_deg < tilt_deg < 180.0:
+            raise ValueError(f"need 0 < arm_deg < tilt_deg < 180, got {arm_deg:g} and {tilt_deg:g}")
+        if calm_steps < 1 or max_steps < 1:
+            raise ValueError(f"calm_steps and max_steps must be positive, got {calm_steps} and {max_steps}")
+        self.inner, self.pose = inner, torch.as_tensor(pose, dtype=torch.float32)
+        self._arm, self._tilt = math.cos(math.radians(arm_deg)), math.cos(math.radians(tilt_deg))
+        self.spin, self.release, self.calm_steps, self.max_steps = spin_rps, release_rps, calm_steps, max_steps
+        self.groups = tuple(sorted(set(inner.groups) | {"student"}))
+        self.action_mapping, self.digest = inner.action_mapping, inner.digest
+        self.name = f"{inner.name} (braked past {tilt_deg:g} deg after upright)"
+        self.brakes = 0
+        """Brakes started since construction (a diagnostic)."""
+        self._armed = torch.zeros(0, dtype=torch.bool)
+        self._on = torch.zeros(0)  # steps braking so far; 0 = not braking
+        self._calm = torch.zeros(0)
+
+    def _grow(self, t: torch.Tensor) -> None:
+        self._armed, self._on, self._calm = grown(self._armed, t, False), grown(self._on, t), grown(self._calm, t)
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
+        self.inner.reset(ids, seeds)
+        t = slot_index(ids)
+        self._grow(t)
+        self._armed[t], self._on[t], self._calm[t] = False, 0.0, 0.0
+
+    def act(self, obs, ids, contexts):
+        a = self.inner.act(obs, ids, contexts)
+        t = slot_index(ids)
+        self._grow(t)
+        x = obs["student"].detach().cpu().float()
+        up_z, spin = -x[:, 2], x[:, 3:6].norm(dim=1)
+        armed = self._armed[t] | (up_z > self._arm)
+        on = self._on[t]
+        start = (on == 0) & armed & (up_z < self._tilt) & (spin > self.spin)
+        on = torch.where(start, torch.ones_like(on), torch.where(on > 0, on + 1, on))
+        calm = torch.where((on > 0) & (spin < self.release), self._calm[t] + 1, torch.zeros_like(on))
+        stop = (on > 0) & ((calm >= self.calm_steps) | (on > self.max_steps))
+        on = torch.where(stop, torch.zeros_like(on), on)
+        self._armed[t], self._on[t], self._calm[t] = armed & ~start, on, calm
+        self.brakes += int(start.sum())
+        return torch.where((on > 0)[:, None].to(a.device), self.pose.to(a.device, a.dtype).expand_as(a), a)
 
 
 class SideMirrored(Policy):
