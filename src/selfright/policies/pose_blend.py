@@ -41,10 +41,16 @@ def pose_blend(actions: torch.Tensor, count: torch.Tensor, delay_steps: int, ram
 def stance_action(robot, action: ActionConfig, leg: tuple[float, float, float]) -> np.ndarray:
     """(J,) the action, under the action mapping ``action``, whose targets are the hip, thigh and
     knee angles ``leg`` (rad) on every leg of ``robot``. Needs a fixed action reference."""
+    return pose_action(robot, action, np.tile(np.asarray(leg, dtype=np.float64), len(robot.joint_names) // 3))
+
+
+def pose_action(robot, action: ActionConfig, q: np.ndarray) -> np.ndarray:
+    """(J,) the action, under the action mapping ``action``, whose joint targets are ``q`` (J,)
+    rad. Needs a fixed action reference."""
     ref = robot.reference_pose(action.reference)
     if ref is None:
-        raise ValueError("a fixed stance needs a fixed action reference (stand / tall), not 'current'")
-    return (np.tile(np.asarray(leg, dtype=np.float64), len(robot.joint_names) // 3) - ref) / action.scale_rad
+        raise ValueError("a fixed pose needs a fixed action reference (stand / tall), not 'current'")
+    return (q - ref) / action.scale_rad
 
 
 def splayed_action(robot, action: ActionConfig, hip_out: float, thigh_front: float, thigh_rear: float,
@@ -53,12 +59,8 @@ def splayed_action(robot, action: ActionConfig, hip_out: float, thigh_front: flo
     ``hip_out`` (rad) away from the body (positive abduction on the left legs, negative on the
     right), the front and rear thighs to ``thigh_front`` and ``thigh_rear`` and the knees to
     ``knee``, each clipped to its joint's range. Needs a fixed action reference."""
-    ref = robot.reference_pose(action.reference)
-    if ref is None:
-        raise ValueError("a fixed pose needs a fixed action reference (stand / tall), not 'current'")
     q = []
     for name in robot.joint_names[::3]:  # one name per leg: FR_hip_joint, FL_hip_joint, ...
         side = 1.0 if name[1] == "L" else -1.0
         q += [side * hip_out, thigh_front if name[0] == "F" else thigh_rear, knee]
-    q = np.clip(np.asarray(q), robot.joint_low, robot.joint_high)
-    return (q - ref) / action.scale_rad
+    return pose_action(robot, action, np.clip(np.asarray(q), robot.joint_low, robot.joint_high))

@@ -8,7 +8,6 @@ while it is tilted over (``scripts/policy_variants.py``; the tilt rule also labe
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -216,7 +215,7 @@ class Braked(Policy):
         if calm_steps < 1 or max_steps < 1:
             raise ValueError(f"calm_steps and max_steps must be positive, got {calm_steps} and {max_steps}")
         self.inner, self.pose = inner, torch.as_tensor(pose, dtype=torch.float32)
-        self._arm, self._tilt = math.cos(math.radians(arm_deg)), math.cos(math.radians(tilt_deg))
+        self._tilted_arm, self._tilted_over = TiltSwitch(arm_deg), TiltSwitch(tilt_deg)
         self.spin, self.release, self.calm_steps, self.max_steps = spin_rps, release_rps, calm_steps, max_steps
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
@@ -240,11 +239,11 @@ class Braked(Policy):
         a = self.inner.act(obs, ids, contexts)
         t = slot_index(ids)
         self._grow(t)
-        x = obs["student"].detach().cpu().float()
-        up_z, spin = -x[:, 2], x[:, 3:6].norm(dim=1)
-        armed = self._armed[t] | (up_z > self._arm)
+        x = obs["student"]
+        spin = x[:, 3:6].detach().cpu().float().norm(dim=1)
+        armed = self._armed[t] | ~self._tilted_arm.step(x, t)
         on = self._on[t]
-        start = (on == 0) & armed & (up_z < self._tilt) & (spin > self.spin)
+        start = (on == 0) & armed & self._tilted_over.step(x, t) & (spin > self.spin)
         on = torch.where(start, torch.ones_like(on), torch.where(on > 0, on + 1, on))
         calm = torch.where((on > 0) & (spin < self.release), self._calm[t] + 1, torch.zeros_like(on))
         stop = (on > 0) & ((calm >= self.calm_steps) | (on > self.max_steps))
