@@ -315,7 +315,7 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert "off_tile" not in line  # worded, not listed as a changed Table I weight
     edge = {"reward": {**table, "off_tile": 30.0}, "episode": {"off_tile_is_timeout": False}}
     assert reward_summary({"role": "teacher", "train_config": edge}).endswith(
-        "; leaving the tile ended training episodes as terminal, not as a time-out (the project's default)"
+        "; leaving the tile ended training episodes as terminal (the project's default ends them as a time-out)"
     )
     edge["episode"]["off_tile_is_timeout"] = True
     assert "leaving the tile ended" not in reward_summary({"role": "teacher", "train_config": edge})

@@ -319,7 +319,7 @@ def reward_summary(meta: dict[str, Any]) -> str:
         rule += (f"; {episode['restart_arrivals']:.0%} of training episodes restarted at recorded arrivals upright"
                  " instead of with the seed's fall (not in the seed)")
     if episode.get("off_tile_is_timeout") is False:
-        rule += "; leaving the tile ended training episodes as terminal, not as a time-out (the project's default)"
+        rule += "; leaving the tile ended training episodes as terminal (the project's default ends them as a time-out)"
     if episode.get("terminate_on_refall"):
         rule += f"; training episodes ended as terminal at a tip past {refall_tilt}° after upright (not in the seed)"
     if low:
