@@ -107,3 +107,43 @@ def test_fit_motor_wraps_only_dc_policies_on_ideal_servos_and_inside_a_multiplex
     faster = _Constant(torch.zeros(1, 12))
     faster.trained_motor = ("dcmotor", 30.0)
     assert fit_motor(faster, CFG).speed == 30.0
+
+
+
+def test_the_envelope_motor_is_the_wrapper_applied_by_the_env():
+    """``RobotConfig.motor = "envelope"`` moves any policy's targets as ``TorqueEnvelope`` moves a
+    DC-trained policy's on the ideal servos: along a fall, the env's targets are the ones the
+    wrapper would have sent the ideal servos from the same states."""
+    from selfright.env.recovery_env import RecoveryEnv
+    from selfright.train.contexts import make_training_worlds
+
+    w = torch.randn(42, 12, generator=torch.Generator().manual_seed(0)) * 0.3
+
+    class Linear(_Constant):
+        def act(self, obs, ids, contexts):
+            return torch.tanh(obs["student"] @ w) * 3.0
+
+    env_cfg = dataclasses.replace(CFG, robot=dataclasses.replace(CFG.robot, motor="envelope"))
+    policy = Linear(torch.zeros(1, 12))
+    assert fit_motor(policy, env_cfg) is policy  # the env applies the limit: no wrapper on top
+    wrapped = fit_motor(Linear(torch.zeros(1, 12)), CFG)
+    assert isinstance(wrapped, TorqueEnvelope)
+    envs = [RecoveryEnv(c, make_training_worlds("flat", c, seed=0), num_envs=1, threads=1) for c in (env_cfg, CFG)]
+    ids = np.arange(1)
+    envs[0].reset(ids, np.zeros(1, dtype=np.int64), [np.random.default_rng(4)])
+    wrapped.reset(ids)
+    cut = 0.0
+    for _ in range(15):
+        obs = envs[0].observe()
+        state = envs[0].state.copy()
+        want = envs[1]._targets(state, envs[1]._clip(wrapped.act(obs, ids, ["flat"])))
+        action = policy.act(obs, ids, ["flat"])
+        envs[0].step(action)
+        np.testing.assert_allclose(envs[0].last_ctrl, want, atol=1e-5)
+        cut = max(cut, float(np.abs(envs[1]._targets(state, envs[1]._clip(action)) - want).max()))
+    assert cut > 0.05  # the envelope moved some targets
+    for env in envs:
+        env.close()
+    envelope_trained = _Constant(torch.zeros(1, 12))
+    envelope_trained.trained_motor = ("envelope", 0.0)
+    assert isinstance(fit_motor(envelope_trained, CFG), TorqueEnvelope)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Callable, Literal
 
 import tyro
 
-from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, RobotConfig, SimConfig
+from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, Motor, RobotConfig, SimConfig
 
 if TYPE_CHECKING:
     from selfright.env.world import World
@@ -43,10 +43,10 @@ class _Episodes:
     """Episode limit after settling (s)."""
     action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
-    motor: Literal["ideal", "dcmotor"] = "ideal"
-    """Motor model: ideal (full torque at any speed, the benchmark's default) or dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; the *-dc policies and rough trained with it, the others with ideal)."""
+    motor: Motor = "ideal"
+    """Motor model: ideal (full torque at any speed, the benchmark's default), dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; the *-dc policies and rough trained with it, the others with ideal) or envelope (the ideal servos with every policy's targets held to the DC motors' torque-speed envelope each control step)."""
     torque_envelope: bool = True
-    """A policy trained with --motor dcmotor, run on the ideal servos, holds its commands to the DC motors' torque-speed envelope (selfright.policies.torque_envelope); --no-torque-envelope runs it unchanged."""
+    """A policy trained with --motor dcmotor or envelope, run on the ideal servos, holds its commands to the DC motors' torque-speed envelope (selfright.policies.torque_envelope); --no-torque-envelope runs it unchanged."""
 
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(

@@ -51,6 +51,10 @@ class ContextConfig:
     """Ground compliance: MuJoCo contact ``solref`` damping ratio (dimensionless)."""
 
 
+Motor = Literal["ideal", "dcmotor", "envelope"]
+"""Motor models of the PD servos (``RobotConfig.motor``)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class RobotConfig:
     """Actuation of the robot model."""
@@ -61,9 +65,14 @@ class RobotConfig:
     """PD stiffness of every joint (N·m/rad)."""
     kd: float = 1.0
     """PD damping of every joint (N·m·s/rad)."""
-    motor: Literal["ideal", "dcmotor"] = "ideal"
+    motor: Motor = "ideal"
     """Motor model of the PD servos. ``ideal``: full torque (±33.5 N·m on the A1) at any speed,
-    the benchmark's default. ``dcmotor``: MuJoCo's
+    the benchmark's default. ``envelope``: the ideal servos, with each control step's joint
+    targets moved so that the servo asks no more torque than a DC motor could give at the
+    joint's speed at the start of the step (``selfright.sim.dc_envelope``): what a policy
+    trained with ``dcmotor`` runs in on the ideal servos, applied by the env to any policy, so
+    one can be trained with the limit in the loop and scored on the benchmark's servos as it
+    was trained (docs/training.md, *Training in the DC torque envelope*). ``dcmotor``: MuJoCo's
     DC-motor actuator run as a current-controlled driver (``input="pos"``, torque-space PD gains
     ``kp``, ``kd``) whose drive voltage saturates, so the torque it can give falls linearly to 0
     at the motors' rated speed (``RobotSpec.rated_joint_speed``, 21 rad/s on the A1), as on the
@@ -72,7 +81,7 @@ class RobotConfig:
     run on the ideal servos in the DC torque envelope (``selfright.policies.torque_envelope``).
     Opt-in; the CPU engine only."""
     motor_speed_rad_s: float | None = None
-    """``dcmotor`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
+    """``dcmotor`` and ``envelope`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
     robot's rated speed (``RobotSpec.rated_joint_speed``). Faster than the real motors, it moves
     the model toward the ideal servos (a curriculum from one to the other; docs/training.md,
     *The incline under DC motors*)."""

@@ -20,8 +20,9 @@ from selfright.env.goal import GoalTracker, in_goal_set
 from selfright.env.observations import privileged_obs, scan_points, student_obs
 from selfright.env.robot_state import RobotState, decode
 from selfright.env.world import World
-from selfright.robots import get_robot
+from selfright.robots import RobotSpec, get_robot
 from selfright.sim.batch import BatchStepper, sensor_layout, state_layout
+from selfright.sim.dc_envelope import enveloped_targets
 from selfright.terrain.heightfield import sample_heights
 
 EDGE_MARGIN_M = 0.5
@@ -90,6 +91,8 @@ class RecoveryEnv:
         """(J,) joint angles of action 0, or None (``current``: the angles at each step)."""
         self._low = self.robot.joint_low
         self._high = self.robot.joint_high
+        self._envelope = _envelope_args(cfg, self.robot) if cfg.robot.motor == "envelope" else None
+        """(kp, kd, stall torque, no-load speed) of ``RobotConfig.motor = "envelope"``, or None."""
         nj = self.robot.num_joints
         self.world_idx = np.zeros(num_envs, dtype=np.int64)
         self.models: list[mujoco.MjModel] = [template] * num_envs
@@ -208,7 +211,16 @@ class RecoveryEnv:
         (reference: the pose of ``ActionConfig.reference``, ``RobotSpec.reference_pose``, or for
         ``current`` the angles at the start of the step)."""
         ref = state[:, self.sl.qpos_joints] if self._ref_pose is None else self._ref_pose
-        return np.clip(ref + self.cfg.action.scale_rad * clipped.double().numpy(), self._low, self._high)
+        scale = self.cfg.action.scale_rad
+        target = np.clip(ref + scale * clipped.double().numpy(), self._low, self._high)
+        if self._envelope is None:
+            return target
+        # As selfright.policies.torque_envelope does it: move the target into the DC envelope,
+        # then back through the action clip and the joint range.
+        q, qd = (torch.from_numpy(state[:, c]) for c in (self.sl.qpos_joints, self.sl.qvel_joints))
+        moved = enveloped_targets(torch.from_numpy(target), q, qd, *self._envelope).numpy()
+        clip = self.cfg.action.clip
+        return np.clip(ref + scale * np.clip((moved - ref) / scale, -clip, clip), self._low, self._high)
 
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
         """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""
@@ -290,3 +302,12 @@ class RecoveryEnv:
 
     def close(self) -> None:
         self.stepper.close()
+
+
+def _envelope_args(cfg: BenchmarkConfig, robot: RobotSpec) -> tuple[float, float, float, float]:
+    """(kp, kd, stall torque, no-load speed) of the DC envelope the env holds targets to: the
+    nominal PD gains (a deployed limiter does not know randomised ones) and the motor speed."""
+    speed = cfg.robot.motor_speed_rad_s or robot.rated_joint_speed
+    if not speed or speed <= 0:
+        raise ValueError(f"robot {robot.name!r} has no rated joint speed; give RobotConfig.motor_speed_rad_s")
+    return cfg.robot.kp, cfg.robot.kd, float(robot.torque_limit), float(speed)

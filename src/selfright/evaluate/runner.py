@@ -10,13 +10,13 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator, Literal
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import torch
 from tqdm import tqdm
 
-from selfright.config import BenchmarkConfig, ContextConfig, to_dict
+from selfright.config import BenchmarkConfig, ContextConfig, Motor, to_dict
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
 from selfright.evaluate.metrics import summarize
@@ -168,10 +168,10 @@ class ReplayArgs:
     """Episodes per cell."""
     seed: int = 0
     """Run seed (same episodes as ``selfright evaluate --seed``)."""
-    motor: Literal["ideal", "dcmotor"] = "ideal"
-    """Motor model (``RobotConfig.motor``): ``ideal`` or ``dcmotor``."""
+    motor: Motor = "ideal"
+    """Motor model (``RobotConfig.motor``): ``ideal``, ``dcmotor`` or ``envelope``."""
     torque_envelope: bool = True
-    """A ``dcmotor``-trained policy on the ideal servos holds its commands to the DC envelope
+    """A ``dcmotor``- or ``envelope``-trained policy on the ideal servos holds its commands to the DC envelope
     (``selfright.policies.registry.fit_motor``); off = runs it unchanged."""
     tile_size_m: float | None = None
     """Side of each cell's tile (m); ``None`` = the benchmark's (8 m). Same drop square and

@@ -63,13 +63,14 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_
 
 def fit_motor(policy: Policy, cfg: BenchmarkConfig) -> Policy:
     """``policy`` (already in the env's action mapping) ready for the env's motor model: a
-    policy trained with ``dcmotor`` (``trained_motor``) run on the ``ideal`` servos holds its
-    commands to the DC motors' torque-speed envelope at the speed it trained with
-    (``TorqueEnvelope``); any other pairing runs unchanged."""
+    policy trained with ``dcmotor`` or in the ``envelope`` (``trained_motor``) run on the
+    ``ideal`` servos holds its commands to the DC motors' torque-speed envelope at the speed it
+    trained with (``TorqueEnvelope``, the limit the ``envelope`` env applies); any other pairing
+    runs unchanged."""
     if _fit_members(policy, lambda sub: fit_motor(sub, cfg)):
         return policy
     trained = policy.trained_motor
-    if trained is None or trained[0] != "dcmotor" or cfg.robot.motor != "ideal":
+    if trained is None or trained[0] not in ("dcmotor", "envelope") or cfg.robot.motor != "ideal":
         return policy
     from selfright.policies.torque_envelope import TorqueEnvelope
 

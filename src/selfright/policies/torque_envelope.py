@@ -27,23 +27,9 @@ from selfright.policies.base import Policy
 from selfright.policies.baselines import TargetPolicy, joint_angles
 from selfright.policies.slots import LastActions
 from selfright.robots import RobotSpec
+from selfright.sim.dc_envelope import envelope_limits, enveloped_targets
 
-
-def envelope_limits(qd: torch.Tensor, stall_torque: float, speed: float) -> tuple[torch.Tensor, torch.Tensor]:
-    """(low, high) torque bounds (N·m) of a voltage-saturated DC motor at joint speeds ``qd``
-    (rad/s), stall torque ``stall_torque``, no-load speed ``speed`` (rad/s)."""
-    high = torch.clamp(stall_torque * (1.0 - qd / speed), max=stall_torque)
-    low = torch.clamp(-stall_torque * (1.0 + qd / speed), min=-stall_torque)
-    return low, high
-
-
-def enveloped_targets(target: torch.Tensor, q: torch.Tensor, qd: torch.Tensor, kp: float, kd: float,
-                      stall_torque: float, speed: float) -> torch.Tensor:
-    """Joint targets whose PD torque at (``q``, ``qd``) is that of ``target`` clipped to the DC
-    envelope (``envelope_limits``)."""
-    tau = kp * (target - q) - kd * qd
-    low, high = envelope_limits(qd, stall_torque, speed)
-    return q + (torch.minimum(torch.maximum(tau, low), high) + kd * qd) / kp
+__all__ = ["TorqueEnvelope", "envelope_limits", "enveloped_targets"]
 
 
 class TorqueEnvelope(TargetPolicy):

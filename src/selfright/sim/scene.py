@@ -76,8 +76,11 @@ def scene_mjcf(robot: RobotSpec, tile: Tile, ctx: ContextConfig, robot_cfg: Robo
             f"joint_stop_timeconst_s {robot_cfg.joint_stop_timeconst_s} s is under 2 × the {sim.timestep_s} s "
             "physics step, which MuJoCo would silently raise; use at least twice the step"
         )
-    speed = {} if robot_cfg.motor_speed_rad_s is None else {"motor_speed": robot_cfg.motor_speed_rad_s}
-    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, robot_cfg.motor, **speed)
+    dc = robot_cfg.motor == "dcmotor"
+    speed = {} if robot_cfg.motor_speed_rad_s is None or not dc else {"motor_speed": robot_cfg.motor_speed_rad_s}
+    # "envelope" is the ideal servos; the env limits their targets (selfright.sim.dc_envelope).
+    servo = "ideal" if robot_cfg.motor == "envelope" else robot_cfg.motor
+    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, servo, **speed)
     inner = re.search(r"<mujoco[^>]*>(.*)</mujoco>", body, re.S)
     assert inner is not None
     robot_xml = inner.group(1)

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from selfright.config import ActionConfig, BenchmarkConfig, RobotConfig
+from selfright.config import ActionConfig, BenchmarkConfig, Motor, RobotConfig
 from selfright.train.config import Context, Role, TrainConfig
 
 if TYPE_CHECKING:
@@ -55,11 +55,15 @@ class TrainArgs:
     """Joint targets = the standing pose (stand), a taller standing pose (tall) or the current
     angles (current) + 0.5 rad × action; recorded in the checkpoints (evaluate with the same
     --action-reference)."""
-    motor: Literal["ideal", "dcmotor"] = "ideal"
-    """Motor model (``RobotConfig.motor``): ideal servos (the benchmark's default) or DC motors
-    whose torque falls to 0 at the rated joint speed; evaluate with the same ``--motor``."""
+    motor: Motor = "ideal"
+    """Motor model (``RobotConfig.motor``): ideal servos (the benchmark's default), DC motors
+    whose torque falls to 0 at the rated joint speed, or ``envelope``: the ideal servos with the
+    policy's targets held to the DC motors' torque-speed envelope each control step, the limit
+    ``selfright evaluate`` puts on a DC-trained policy, so the policy trains as it will be
+    scored on the benchmark's servos. Evaluate with the same ``--motor`` (a ``dcmotor`` or
+    ``envelope`` policy on the default ideal servos gets the envelope automatically)."""
     motor_speed_rad_s: float | None = None
-    """With ``--motor dcmotor``: the speed (rad/s) at which the torque falls to 0; None = the
+    """With ``--motor dcmotor`` or ``envelope``: the speed (rad/s) at which the torque falls to 0; None = the
     robot's rated speed (21 rad/s on the A1). Faster values approach the ideal servos."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""

@@ -220,7 +220,9 @@ def motor_lines(meta: dict[str, Any]) -> list[str]:
     trained = "" if speed is None else (f"; trained with their torque reaching 0 at {speed:g} rad/s, not the "
                                         "robot's rated speed that `selfright evaluate` runs")
     ideal = ("; on the benchmark's ideal servos `selfright evaluate` holds its commands to the DC torque-speed "
-             "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else "")
+             "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else
+             "; trained on the ideal servos with its commands held to the DC torque-speed envelope, which "
+             "`selfright evaluate` applies on the benchmark's ideal servos too" if motor == "envelope" else "")
     return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained}{ideal})"]
 
 

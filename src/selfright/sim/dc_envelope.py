@@ -1,0 +1,33 @@
+"""The torque-speed envelope of a DC motor whose drive voltage saturates, as a limit on PD
+joint targets.
+
+A DC motor with stall torque τ_s and no-load speed ω₀ gives at joint speed ω a torque within
+[max(−τ_s, −τ_s (1 + ω/ω₀)), min(τ_s, τ_s (1 − ω/ω₀))]. An ideal PD servo asks
+τ = Kp (q* − q) − Kd q̇. Moving the target to q*' = q + (clip(τ) + Kd q̇) / Kp makes the servo
+ask exactly the clipped torque at (q, q̇). Two users: ``selfright.policies.torque_envelope``
+(a DC-trained policy run on the ideal servos) and ``RobotConfig.motor = "envelope"`` (the env
+applies the same limit to every policy, so a policy can be trained with it in the loop).
+"""
+
+from __future__ import annotations
+
+import torch
+
+__all__ = ["envelope_limits", "enveloped_targets"]
+
+
+def envelope_limits(qd: torch.Tensor, stall_torque: float, speed: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """(low, high) torque bounds (N·m) of a voltage-saturated DC motor at joint speeds ``qd``
+    (rad/s), stall torque ``stall_torque``, no-load speed ``speed`` (rad/s)."""
+    high = torch.clamp(stall_torque * (1.0 - qd / speed), max=stall_torque)
+    low = torch.clamp(-stall_torque * (1.0 + qd / speed), min=-stall_torque)
+    return low, high
+
+
+def enveloped_targets(target: torch.Tensor, q: torch.Tensor, qd: torch.Tensor, kp: float, kd: float,
+                      stall_torque: float, speed: float) -> torch.Tensor:
+    """Joint targets whose PD torque at (``q``, ``qd``) is that of ``target`` clipped to the DC
+    envelope (``envelope_limits``)."""
+    tau = kp * (target - q) - kd * qd
+    low, high = envelope_limits(qd, stall_torque, speed)
+    return q + (torch.minimum(torch.maximum(tau, low), high) + kd * qd) / kp
