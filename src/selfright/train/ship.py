@@ -219,10 +219,12 @@ def motor_lines(meta: dict[str, Any]) -> list[str]:
     speed = robot.get("motor_speed_rad_s")
     trained = "" if speed is None else (f"; trained with their torque reaching 0 at {speed:g} rad/s, not the "
                                         "robot's rated speed that `selfright evaluate` runs")
+    if motor == "envelope":
+        return [f"- **Motor model**: `envelope`: trained on the benchmark's ideal servos with its commands held each "
+                f"control step to the DC motors' torque-speed envelope{trained}; `selfright evaluate` holds them "
+                "to it on the ideal servos too (`selfright.policies.torque_envelope`), so evaluate as usual"]
     ideal = ("; on the benchmark's ideal servos `selfright evaluate` holds its commands to the DC torque-speed "
-             "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else
-             "; trained on the ideal servos with its commands held to the DC torque-speed envelope, which "
-             "`selfright evaluate` applies on the benchmark's ideal servos too" if motor == "envelope" else "")
+             "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else "")
     return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained}{ideal})"]
 
 
