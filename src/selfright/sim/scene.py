@@ -76,10 +76,11 @@ def scene_mjcf(robot: RobotSpec, tile: Tile, ctx: ContextConfig, robot_cfg: Robo
             f"joint_stop_timeconst_s {robot_cfg.joint_stop_timeconst_s} s is under 2 × the {sim.timestep_s} s "
             "physics step, which MuJoCo would silently raise; use at least twice the step"
         )
-    dc = robot_cfg.motor == "dcmotor"
-    speed = {} if robot_cfg.motor_speed_rad_s is None or not dc else {"motor_speed": robot_cfg.motor_speed_rad_s}
-    # "envelope" is the ideal servos; the env limits their targets (selfright.sim.dc_envelope).
-    servo = "ideal" if robot_cfg.motor == "envelope" else robot_cfg.motor
+    # "envelope" is the ideal servos; the env limits their targets (selfright.sim.dc_envelope)
+    # and reads the speed itself. A speed for the ideal servos is refused by the robot's mjcf.
+    envelope = robot_cfg.motor == "envelope"
+    speed = {} if robot_cfg.motor_speed_rad_s is None or envelope else {"motor_speed": robot_cfg.motor_speed_rad_s}
+    servo = "ideal" if envelope else robot_cfg.motor
     body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, servo, **speed)
     inner = re.search(r"<mujoco[^>]*>(.*)</mujoco>", body, re.S)
     assert inner is not None
