@@ -22,7 +22,7 @@ from selfright.env.robot_state import RobotState, decode
 from selfright.env.world import World
 from selfright.robots import RobotSpec, get_robot
 from selfright.sim.batch import BatchStepper, sensor_layout, state_layout
-from selfright.sim.dc_envelope import enveloped_targets
+from selfright.sim.dc_envelope import envelope_speed, enveloped_targets
 from selfright.terrain.heightfield import sample_heights
 
 EDGE_MARGIN_M = 0.5
@@ -307,7 +307,5 @@ class RecoveryEnv:
 def _envelope_args(cfg: BenchmarkConfig, robot: RobotSpec) -> tuple[float, float, float, float]:
     """(kp, kd, stall torque, no-load speed) of the DC envelope the env holds targets to: the
     nominal PD gains (a deployed limiter does not know randomised ones) and the motor speed."""
-    speed = cfg.robot.motor_speed_rad_s or robot.rated_joint_speed
-    if not speed or speed <= 0:
-        raise ValueError(f"robot {robot.name!r} has no rated joint speed; give RobotConfig.motor_speed_rad_s")
-    return cfg.robot.kp, cfg.robot.kd, float(robot.torque_limit), float(speed)
+    speed = envelope_speed(cfg.robot.motor_speed_rad_s, robot.rated_joint_speed, robot.name)
+    return cfg.robot.kp, cfg.robot.kd, float(robot.torque_limit), speed

@@ -27,7 +27,7 @@ from selfright.policies.base import Policy
 from selfright.policies.baselines import TargetPolicy, joint_angles
 from selfright.policies.slots import LastActions
 from selfright.robots import RobotSpec
-from selfright.sim.dc_envelope import envelope_limits, enveloped_targets
+from selfright.sim.dc_envelope import envelope_limits, envelope_speed, enveloped_targets
 
 __all__ = ["TorqueEnvelope", "envelope_limits", "enveloped_targets"]
 
@@ -45,9 +45,7 @@ class TorqueEnvelope(TargetPolicy):
     """
 
     def __init__(self, inner: Policy, robot: RobotSpec, action: ActionConfig, motor: RobotConfig):
-        speed = motor.motor_speed_rad_s or robot.rated_joint_speed
-        if not speed or speed <= 0:
-            raise ValueError(f"robot {robot.name!r} has no rated joint speed; give RobotConfig.motor_speed_rad_s")
+        speed = envelope_speed(motor.motor_speed_rad_s, robot.rated_joint_speed, robot.name)
         super().__init__(robot, action)
         self.inner = inner
         self.kp, self.kd, self.speed, self.stall = motor.kp, motor.kd, float(speed), float(robot.torque_limit)

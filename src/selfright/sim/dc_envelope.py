@@ -13,7 +13,16 @@ from __future__ import annotations
 
 import torch
 
-__all__ = ["envelope_limits", "enveloped_targets"]
+__all__ = ["envelope_speed", "envelope_limits", "enveloped_targets"]
+
+
+def envelope_speed(motor_speed: float | None, rated_speed: float | None, robot_name: str) -> float:
+    """The no-load speed (rad/s) of the envelope: ``motor_speed`` if given
+    (``RobotConfig.motor_speed_rad_s``), else the robot's rated joint speed."""
+    speed = motor_speed or rated_speed
+    if not speed or speed <= 0:
+        raise ValueError(f"robot {robot_name!r} has no rated joint speed; give RobotConfig.motor_speed_rad_s")
+    return float(speed)
 
 
 def envelope_limits(qd: torch.Tensor, stall_torque: float, speed: float) -> tuple[torch.Tensor, torch.Tensor]:
