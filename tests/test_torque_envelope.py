@@ -109,7 +109,6 @@ def test_fit_motor_wraps_only_dc_policies_on_ideal_servos_and_inside_a_multiplex
     assert fit_motor(faster, CFG).speed == 30.0
 
 
-
 def test_the_envelope_motor_is_the_wrapper_applied_by_the_env():
     """``RobotConfig.motor = "envelope"`` moves any policy's targets as ``TorqueEnvelope`` moves a
     DC-trained policy's on the ideal servos: along a fall, the env's targets are the ones the

@@ -48,7 +48,7 @@ class TorqueEnvelope(TargetPolicy):
         speed = envelope_speed(motor.motor_speed_rad_s, robot.rated_joint_speed, robot.name)
         super().__init__(robot, action)
         self.inner = inner
-        self.kp, self.kd, self.speed, self.stall = motor.kp, motor.kd, float(speed), float(robot.torque_limit)
+        self.kp, self.kd, self.speed, self.stall = motor.kp, motor.kd, speed, float(robot.torque_limit)
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.group = getattr(inner, "group", None)
         """The observation group the network reads (a file policy's), as the inner policy's."""

@@ -219,9 +219,10 @@ def motor_lines(meta: dict[str, Any]) -> list[str]:
     speed = robot.get("motor_speed_rad_s")
     trained = "" if speed is None else (f"; trained with their torque reaching 0 at {speed:g} rad/s, not the "
                                         "robot's rated speed that `selfright evaluate` runs")
-    if motor == "envelope":
+    if motor == "envelope":  # the wrapper keeps the trained speed: no mismatch to warn of
+        at = "" if speed is None else f" (torque reaching 0 at {speed:g} rad/s)"
         return [f"- **Motor model**: `envelope`: trained on the benchmark's ideal servos with its commands held each "
-                f"control step to the DC motors' torque-speed envelope{trained}; `selfright evaluate` holds them "
+                f"control step to the DC motors' torque-speed envelope{at}; `selfright evaluate` holds them "
                 "to it on the ideal servos too (`selfright.policies.torque_envelope`), so evaluate as usual"]
     ideal = ("; on the benchmark's ideal servos `selfright evaluate` holds its commands to the DC torque-speed "
              "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else "")
