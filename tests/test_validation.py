@@ -62,3 +62,13 @@ def test_a_teacher_trained_beside_a_frozen_policy_is_validated_in_their_composit
     summary = json.loads((out / "validation" / "model_0" / "summary.json").read_text())
     assert summary["policy"] == f"model_0.pt under {frozen} (tilted)"
     assert [s.iteration for s in read_scores(out)] == [0]
+
+
+def test_a_checkpoint_saved_by_the_timer_on_the_last_iteration_is_validated_once(tmp_path: Path):
+    # With checkpoint_every_s=0 the per-iteration timer saves (and validates) the last iteration,
+    # and the run then saves it again over rsl_rl's own copy: that second save must not score
+    # the same iteration again (its validation folder would hold a file of another digest).
+    train = dataclasses.replace(TINY, checkpoint_every_s=0.0, validation=ValidationConfig(episodes=1, grid="tiny"))
+    out = tmp_path / "t"
+    run(spec(out, train=train, iterations=2))
+    assert [s.iteration for s in read_scores(out)] == [0, 1]

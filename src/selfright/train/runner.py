@@ -171,6 +171,7 @@ class TrainingRun:
         self.spec = spec
         self.out = spec.out
         self.stop_requested = False
+        self.validated: set[int] = set()
         self.last_ckpt_time = time.time()
         self.last_progress = 0.0
         self.progress_lines = 0
@@ -509,7 +510,9 @@ class TrainingRun:
         if keep > 0:
             for _, old in list_checkpoints(self.out)[:-keep]:
                 old.unlink(missing_ok=True)
-        self._validate(path, it, meta["env_steps"])
+        if it not in self.validated:  # the final save repeats one the timer made on the last iteration
+            self._validate(path, it, meta["env_steps"])
+            self.validated.add(it)
         self.last_ckpt_time = time.time()
         return path
 
