@@ -72,3 +72,18 @@ def test_a_checkpoint_saved_by_the_timer_on_the_last_iteration_is_validated_once
     out = tmp_path / "t"
     run(spec(out, train=train, iterations=2))
     assert [s.iteration for s in read_scores(out)] == [0, 1]
+
+
+def test_validating_checkpoints_does_not_change_what_trains(tmp_path: Path):
+    # Checkpoints (and their validation) fall on a wall-clock timer; scoring one must not
+    # draw from the generator that samples the training's actions, or the same command and
+    # seed would train different policies on machines of different speed.
+    weights = []
+    for every in (0.0, 1e9):
+        train = dataclasses.replace(TINY, checkpoint_every_s=every, validation=ValidationConfig(episodes=1, grid="tiny"))
+        out = tmp_path / f"every_{every:g}"
+        run(spec(out, train=train, iterations=3))
+        weights.append(torch.load(out / "model_2.pt", weights_only=False)["actor_state_dict"])
+    assert weights[0].keys() == weights[1].keys()
+    for k in weights[0]:
+        assert torch.equal(weights[0][k], weights[1][k]), k

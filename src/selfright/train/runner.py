@@ -529,10 +529,15 @@ class TrainingRun:
             side = "upright" if ep.upright_policy else "tilted"
             partner = validation.Partner(ep.upright_policy or ep.tilted_policy, side, ep.upright_tilt_deg)
         t = time.time()
-        score = validation.evaluate_checkpoint(
-            ckpt, iteration=it, env_steps=env_steps, grid=v.grid or self.spec.context, episodes=v.episodes,
-            seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=self.spec.bench, partner=partner,
-        )
+        # Loading the checkpoint builds networks from torch's global generator, which also draws
+        # the training's action noise; checkpoints fall on a wall-clock timer, so without the fork
+        # the same command and seed would train a different policy on a faster or slower machine.
+        cuda = [torch.cuda.current_device()] if str(self.spec.device).startswith("cuda") else []
+        with torch.random.fork_rng(devices=cuda):
+            score = validation.evaluate_checkpoint(
+                ckpt, iteration=it, env_steps=env_steps, grid=v.grid or self.spec.context, episodes=v.episodes,
+                seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=self.spec.bench, partner=partner,
+            )
         best = validation.record(self.out, score, ckpt)
         writer = self.runner.logger.writer
         if writer is not None:
