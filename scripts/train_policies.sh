@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The recipe behind the shipped policies, one stage per call (docs/training.md tells why):
+# The recipe behind the policies shipped up to the fourteenth session, one stage per call (docs/training.md
+# tells why; `python scripts/lineage.py --policy NAME` lists every run behind a policy shipped today):
 #
 #   bash scripts/train_policies.sh flat-teacher      # PPO teacher on the flat plane (~10.6 M steps)
 #   bash scripts/train_policies.sh context-teachers  # rough teacher fine-tuned from it; the flat escape specialist

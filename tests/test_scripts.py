@@ -397,3 +397,39 @@ def test_policy_variants_envelope_speed_is_the_trained_one_by_default_and_cuts_a
     assert "DC envelope at 8 rad/s" in capsys.readouterr().out
     assert episode_rows(outs["v21"]) == episode_rows(outs["own"])
     assert episode_rows(outs["v8"]) != episode_rows(outs["own"])
+
+
+def test_lineage_lists_every_run_a_policy_descends_from_oldest_first(tmp_path, monkeypatch, capsys):
+    import json
+
+    def meta(name: str, **kw) -> None:
+        (tmp_path / "runs" / name).mkdir(parents=True)
+        m = {"role": "teacher", "context": "incline", "iterations_done": 10, "env_steps": 1000, "wall_clock_s": 360.0,
+             "command_lines": [f"/venv/bin/selfright train --out runs/{name} "], "command_devices": ["cpu"], **kw}
+        (tmp_path / "runs" / name / "train_meta.json").write_text(json.dumps(m))
+
+    meta("base")
+    meta("escape", init_from="runs/base/model_9.pt")
+    meta("student", role="student", teacher="runs/base/model_5.pt",
+         train_config={"distillation": {"fallback_teacher": "runs/escape/model_3.pt"}, "episode": {}})
+    meta("stance", role="student", teacher="runs/student/model_9.pt")
+    run_script("lineage.py", ["--run", "runs/stance", "--root", str(tmp_path)], monkeypatch)
+    out = capsys.readouterr().out
+    heads = [line.split(":")[0] for line in out.splitlines() if line[:1].isdigit() and ". runs/" in line]
+    assert heads == ["1. runs/base", "2. runs/escape", "3. runs/student", "4. runs/stance"]
+    assert "from fallback teacher runs/escape (uses model_3.pt)" in out
+    assert "$ selfright train --out runs/base" in out
+    assert out.rstrip().endswith("4 runs, 4,000 env steps, 0.40 h of training in all "
+                                 "(runs that went on past the checkpoint used count in full)")
+
+
+def test_lineage_of_each_shipped_policy_but_the_renamed_flat_teacher_starts_at_a_committed_run(monkeypatch, capsys):
+    from selfright.policies.registry import CHECKPOINT_DIR
+
+    for card in sorted(CHECKPOINT_DIR.glob("*.md")):
+        if card.stem == "flat-teacher":  # its run folder became runs/flat_teacher_best; the error names it
+            with pytest.raises(SystemExit, match="flat_teacher_best"):
+                run_script("lineage.py", ["--policy", card.stem], monkeypatch)
+            continue
+        run_script("lineage.py", ["--policy", card.stem], monkeypatch)
+        assert " runs, " in capsys.readouterr().out.splitlines()[-1], card.stem
