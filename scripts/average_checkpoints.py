@@ -1,13 +1,24 @@
-"""Average the actor weights of several rsl_rl checkpoints of one run (weight averaging of
-neighbouring checkpoints, a cheap test for a flatter, more robust policy).
+"""Average the actor weights of several rsl_rl checkpoints: neighbouring checkpoints of one run
+(a cheap test for a flatter, more robust policy), or a *model soup* (Wortsman et al., 2022) of
+runs fine-tuned from one shared checkpoint with different seeds.
 
-The output is the middle checkpoint (the last, for an even count) with its actor's MLP
-weights replaced by the mean over all inputs; its observation normaliser, critic and
-optimiser are kept. Evaluate it like any checkpoint:
+Each checkpoint contributes its deployed actor: a distilled student's weight average
+(``student_ema_state_dict``) when the run kept one, else its student, else its PPO actor. The
+output is the middle checkpoint (the last, for an even count) with that actor's MLP weights
+replaced by the mean over all inputs; its critic, teacher and optimiser are kept.
+
+Observation normalisers: checkpoints of one run share theirs closely, and by default the middle
+checkpoint's is kept. Runs fine-tuned apart each moved their own normaliser, so the same weights
+read differently scaled inputs; ``--fold-normaliser`` first folds each checkpoint's normaliser
+into its first layer (exact: W (x − m) / (s + eps) + b = (W / (s + eps)) x + (b − W m / (s + eps))),
+averages the folded weights, and writes an identity normaliser. Evaluate the result like any
+checkpoint:
 
     python scripts/average_checkpoints.py --out /tmp/flat_avg.pt \
         --checkpoints runs/flat_teacher/model_3269.pt runs/flat_teacher/model_3445.pt runs/flat_teacher/model_3710.pt
-    selfright evaluate --policy /tmp/flat_avg.pt --grid flat --episodes 64 --seed 1
+    python scripts/average_checkpoints.py --fold-normaliser --out /tmp/soup.pt \
+        --checkpoints runs/A/model_399.pt runs/B/model_399.pt
+    selfright evaluate --policy /tmp/soup.pt --grid flat --episodes 64 --seed 1
 """
 
 from __future__ import annotations
@@ -18,31 +29,72 @@ from pathlib import Path
 import torch
 import tyro
 
+from selfright.policies.actor import RSL_RL_NORMALIZER_EPS
+
+ACTOR_KEYS = ("student_ema_state_dict", "student_state_dict", "actor_state_dict")
+"""Where a checkpoint keeps its deployed actor, in the order ``actor_from_checkpoint`` reads them."""
+
 
 @dataclass(frozen=True)
 class Args:
     out: Path
     """Where to write the averaged checkpoint (.pt)."""
     checkpoints: tuple[Path, ...]
-    """Checkpoints of one run (same network shapes), e.g. runs/NAME/model_K.pt."""
+    """Checkpoints with the same network shapes, e.g. runs/NAME/model_K.pt."""
+    fold_normaliser: bool = False
+    """Fold each checkpoint's observation normaliser into its first layer before averaging
+    (for runs that trained apart); the output's normaliser is the identity."""
 
 
-def average(paths: tuple[Path, ...]) -> dict:
+def actor_key(ckpt: dict) -> str:
+    """The key of the checkpoint's deployed actor (see ``ACTOR_KEYS``)."""
+    for key in ACTOR_KEYS:
+        if key in ckpt:
+            return key
+    raise SystemExit(f"checkpoint holds none of {', '.join(ACTOR_KEYS)}")
+
+
+def fold(sd: dict[str, torch.Tensor], eps: float = RSL_RL_NORMALIZER_EPS) -> dict[str, torch.Tensor]:
+    """``sd`` with its normaliser folded into ``mlp.0`` and replaced by the identity."""
+    if any(k.startswith(("rnn.", "estimator.")) for k in sd):
+        raise SystemExit("--fold-normaliser handles plain MLP actors only (this one has a GRU or an estimator)")
+    out = dict(sd)
+    if "obs_normalizer._mean" not in sd:
+        return out
+    mean, scale = sd["obs_normalizer._mean"].reshape(-1), sd["obs_normalizer._std"].reshape(-1) + eps
+    w = sd["mlp.0.weight"] / scale
+    out["mlp.0.weight"], out["mlp.0.bias"] = w, sd["mlp.0.bias"] - w @ mean
+    out["obs_normalizer._mean"] = torch.zeros_like(sd["obs_normalizer._mean"])
+    out["obs_normalizer._std"] = torch.full_like(sd["obs_normalizer._std"], 1.0 - eps)  # std + eps = 1
+    out["obs_normalizer._var"] = out["obs_normalizer._std"] ** 2
+    return out
+
+
+def average(paths: tuple[Path, ...], fold_normaliser: bool = False) -> dict:
     """The averaged checkpoint (see the module docstring)."""
     if len(paths) < 2:
         raise SystemExit("give at least two --checkpoints")
     ckpts = [torch.load(p, weights_only=True, map_location="cpu") for p in paths]
+    keys = {actor_key(c) for c in ckpts}
+    if len(keys) > 1:
+        raise SystemExit(f"the checkpoints keep their actors under different keys: {sorted(keys)}")
+    key = keys.pop()
+    actors = [fold(c[key]) if fold_normaliser else c[key] for c in ckpts]
     base = ckpts[len(ckpts) // 2] if len(ckpts) % 2 else ckpts[-1]
-    actor = dict(base["actor_state_dict"])
-    for key in actor:
-        if key.startswith("mlp."):
-            actor[key] = torch.stack([c["actor_state_dict"][key] for c in ckpts]).mean(dim=0)
-    return {**base, "actor_state_dict": actor}
+    actor = dict(actors[len(ckpts) // 2] if len(ckpts) % 2 else actors[-1])
+    for name in actor:
+        if name.startswith("mlp."):
+            shapes = {tuple(a[name].shape) for a in actors}
+            if len(shapes) > 1:
+                raise SystemExit(f"{name} differs in shape between the checkpoints: {sorted(shapes)}")
+            actor[name] = torch.stack([a[name] for a in actors]).mean(dim=0)
+    return {**base, key: actor}
 
 
 def main(a: Args) -> None:
-    torch.save(average(a.checkpoints), a.out)
-    print(f"wrote {a.out}: actor weights averaged over {len(a.checkpoints)} checkpoints")
+    torch.save(average(a.checkpoints, a.fold_normaliser), a.out)
+    how = " (normalisers folded in)" if a.fold_normaliser else ""
+    print(f"wrote {a.out}: actor weights averaged over {len(a.checkpoints)} checkpoints{how}")
 
 
 if __name__ == "__main__":

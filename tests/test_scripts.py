@@ -209,6 +209,51 @@ def test_average_checkpoints_means_the_actor_and_keeps_the_rest(tmp_path, monkey
     assert avg["iter"] == 1 and torch.equal(avg["critic_state_dict"]["mlp.0.weight"], torch.full((1, 2), 1.0))
 
 
+def _student_checkpoint(gen, mean_shift: float) -> dict:
+    import torch
+
+    dims = (42, 16, 12)
+    sd = {"obs_normalizer._mean": torch.randn(1, dims[0], generator=gen) + mean_shift,
+          "obs_normalizer._std": torch.rand(1, dims[0], generator=gen) + 0.5,
+          "obs_normalizer.count": torch.tensor(10), "distribution.std_param": torch.full((12,), 0.1)}
+    sd["obs_normalizer._var"] = sd["obs_normalizer._std"] ** 2
+    for i, (d_in, d_out) in enumerate(zip(dims[:-1], dims[1:])):
+        sd[f"mlp.{2 * i}.weight"] = torch.randn(d_out, d_in, generator=gen) * 0.3
+        sd[f"mlp.{2 * i}.bias"] = torch.randn(d_out, generator=gen) * 0.1
+    return {"student_state_dict": sd, "iter": 0}
+
+
+def test_a_soup_with_folded_normalisers_acts_as_the_mean_of_folded_actors(tmp_path, monkeypatch):
+    """Folding a normaliser into the first layer is exact, so a soup of one checkpoint with
+    itself acts as it does; a soup of two has the mean first-layer weights of the folded pair."""
+    import torch
+
+    from selfright.policies.actor import actor_from_checkpoint
+
+    gen = torch.Generator().manual_seed(0)
+    a, b = _student_checkpoint(gen, 0.0), _student_checkpoint(gen, 1.0)
+    b["student_ema_state_dict"] = b.pop("student_state_dict")  # the deployed weights of a run with an average
+    paths = [tmp_path / "a.pt", tmp_path / "b.pt"]
+    torch.save(a, paths[0])
+    torch.save(b, paths[1])
+    obs = torch.randn(64, 42, generator=gen)
+    run_script("average_checkpoints.py", ["--fold-normaliser", "--out", str(tmp_path / "aa.pt"),
+                                          "--checkpoints", str(paths[0]), str(paths[0])], monkeypatch)
+    same = torch.load(tmp_path / "aa.pt", weights_only=True)
+    assert torch.allclose(actor_from_checkpoint(same)(obs), actor_from_checkpoint(a)(obs), atol=1e-5)
+    with pytest.raises(SystemExit, match="different keys"):  # a student and a weight average are not mixed silently
+        run_script("average_checkpoints.py", ["--out", str(tmp_path / "ab.pt"), "--checkpoints", *map(str, paths)], monkeypatch)
+    b["student_state_dict"] = b.pop("student_ema_state_dict")
+    torch.save(b, paths[1])
+    run_script("average_checkpoints.py", ["--fold-normaliser", "--out", str(tmp_path / "ab.pt"),
+                                          "--checkpoints", *map(str, paths)], monkeypatch)
+    soup = torch.load(tmp_path / "ab.pt", weights_only=True)["student_state_dict"]
+    folded = [c["student_state_dict"]["mlp.0.weight"] / (c["student_state_dict"]["obs_normalizer._std"] + 1e-2)
+              for c in (a, b)]
+    assert torch.allclose(soup["mlp.0.weight"], (folded[0] + folded[1]) / 2, atol=1e-6)
+    assert torch.allclose(soup["mlp.2.weight"], (a["student_state_dict"]["mlp.2.weight"] + b["student_state_dict"]["mlp.2.weight"]) / 2)
+
+
 def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeypatch):
     from selfright.policies.actor import actor_from_checkpoint, load_actor_file
     from selfright.policies.registry import shipped_path
