@@ -5,7 +5,9 @@ runs fine-tuned from one shared checkpoint with different seeds.
 Each checkpoint contributes its deployed actor: a distilled student's weight average
 (``student_ema_state_dict``) when the run kept one, else its student, else its PPO actor. The
 output is the middle checkpoint (the last, for an even count) with that actor's MLP weights
-replaced by the mean over all inputs; its critic, teacher and optimiser are kept.
+replaced by the mean over all inputs; its critic, teacher and optimiser are kept, and its run's
+action mapping, motor model and history are written into the output (``infos``), so it runs as
+trained wherever it is saved.
 
 Observation normalisers: checkpoints of one run share theirs closely, and by default the middle
 checkpoint's is kept. Runs fine-tuned apart each moved their own normaliser, so the same weights
@@ -30,6 +32,7 @@ import torch
 import tyro
 
 from selfright.policies.actor import RSL_RL_NORMALIZER_EPS
+from selfright.train.checkpoints import policy_hint
 
 ACTOR_KEYS = ("student_ema_state_dict", "student_state_dict", "actor_state_dict")
 """Where a checkpoint keeps its deployed actor, in the order ``actor_from_checkpoint`` reads them."""
@@ -80,15 +83,18 @@ def average(paths: tuple[Path, ...], fold_normaliser: bool = False) -> dict:
         raise SystemExit(f"the checkpoints keep their actors under different keys: {sorted(keys)}")
     key = keys.pop()
     actors = [fold(c[key]) if fold_normaliser else c[key] for c in ckpts]
-    base = ckpts[len(ckpts) // 2] if len(ckpts) % 2 else ckpts[-1]
-    actor = dict(actors[len(ckpts) // 2] if len(ckpts) % 2 else actors[-1])
+    middle = len(ckpts) // 2 if len(ckpts) % 2 else len(ckpts) - 1
+    base, actor = ckpts[middle], dict(actors[middle])
     for name in actor:
         if name.startswith("mlp."):
             shapes = {tuple(a[name].shape) for a in actors}
             if len(shapes) > 1:
                 raise SystemExit(f"{name} differs in shape between the checkpoints: {sorted(shapes)}")
             actor[name] = torch.stack([a[name] for a in actors]).mean(dim=0)
-    return {**base, key: actor}
+    # The middle checkpoint's run metadata (action mapping, motor, history) travels inside the
+    # output, which usually lies outside any run folder.
+    hint = {**policy_hint(paths[middle], base.get("infos")), "source": "average of " + ", ".join(map(str, paths))}
+    return {**base, key: actor, "infos": hint}
 
 
 def main(a: Args) -> None:

@@ -8,6 +8,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
 
     python scripts/policy_variants.py --policies runs/flat_teacher/model_3445.pt --noise-scale 0.5 \\
         --grid flat --seed 4 --out results/flat_teacher_noisy_s4
+    python scripts/policy_variants.py --policies incline --noise-std 1e-6 --noise-stream 1 --grid incline \\
+        --seed 4 --out results/incline_nudged_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --grid flat \\
         --seed 4 --out results/ensemble_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --fallback-s 9 \\
@@ -26,7 +28,7 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --seed 4 --out results/incline_dc_v15_s4
 
 The noise is the checkpoint's Gaussian std (rsl_rl ``distribution.std_param``) times
-``--noise-scale``, drawn from a generator seeded per episode, so results do not depend on
+``--noise-scale`` (or ``--noise-std`` for any policy), drawn from a generator seeded per episode, so results do not depend on
 batching.
 """
 
@@ -35,6 +37,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import torch
 import tyro
 
 from selfright.config import BenchmarkConfig
@@ -61,6 +64,12 @@ class Args:
     seed: int = 0
     noise_scale: float = 0.0
     """Action noise as a multiple of the checkpoint's trained std (0 = the mean action)."""
+    noise_std: float = 0.0
+    """Action noise of this std (action units), for any one policy; tiny values (1e-6) ask how
+    many outcomes hang on a rounding-sized nudge (docs/training.md, forty-fifth session)."""
+    noise_stream: int = 0
+    """Which of independent noise sequences ``--noise-scale`` / ``--noise-std`` draw (0 = the
+    original one); other values give further draws on the same falls."""
     fallback_s: float = 0.0
     """With two policies: the second takes over for this long (s) whenever the first has
     stalled, tilted over, for ``stall_s`` (``selfright.policies.variants.Fallback``); 0 = average them."""
@@ -173,10 +182,14 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
 def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if not a.policies:
         raise ValueError("give --policies")
-    if a.noise_scale > 0:
+    if a.noise_scale > 0 and a.noise_std > 0:
+        raise ValueError("give --noise-scale or --noise-std, not both")
+    if a.noise_scale > 0 or a.noise_std > 0:
         if len(a.policies) != 1:
-            raise ValueError("--noise-scale takes one policy")
-        return Noisy(load_member(a, a.policies[0], cfg), a.noise_scale * trained_std(a.policies[0]))
+            raise ValueError("--noise-scale and --noise-std take one policy")
+        member = load_member(a, a.policies[0], cfg)
+        std = a.noise_scale * trained_std(a.policies[0]) if a.noise_scale > 0 else torch.tensor(a.noise_std)
+        return Noisy(member, std, a.noise_stream)
     members = [load_member(a, p, cfg) for p in a.policies]
     if a.blind_first:
         members[0] = Blinded(members[0], a.blind_first)
@@ -244,6 +257,8 @@ def main(a: Args) -> None:
     else:
         joined = " + ".join(a.policies)
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
+    name += f" (noise std {a.noise_std:g})" if a.noise_std > 0 else ""
+    name += f" (noise stream {a.noise_stream})" if a.noise_stream and (a.noise_scale > 0 or a.noise_std > 0) else ""
     name += f" (first blind to {', '.join(a.blind_first)})" if a.blind_first else ""
     name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
     name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""

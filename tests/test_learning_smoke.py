@@ -9,6 +9,7 @@ import dataclasses
 import io
 import json
 import math
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -277,6 +278,11 @@ def test_policy_records_its_motor_and_runs_in_the_dc_envelope_on_ideal_servos(tm
     onnx_path, policy_path = export(ExportArgs(checkpoint=out, onnx=tmp_path / "dc.onnx"))
     for p in (onnx_path, policy_path):
         assert load_policy_file(p).trained_motor == ("dcmotor", 0.0)
+    # the checkpoint itself records its motor: copied out of its run folder it still runs as trained
+    stray = tmp_path / "elsewhere" / "model_0.pt"
+    stray.parent.mkdir()
+    shutil.copy(out / "model_0.pt", stray)
+    assert load_policy_file(stray).trained_motor == ("dcmotor", 0.0)
 
 
 def test_ship_checks_notes_before_writing(tmp_path: Path):

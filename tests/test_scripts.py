@@ -332,6 +332,24 @@ def test_policy_variants_noise_is_seeded_an_ensemble_of_one_policy_is_that_polic
         run_script("policy_variants.py", [*common, "--policies", "zero", "--noise-scale", "1", "--out", str(tmp_path / "x")], monkeypatch)
 
 
+def test_policy_variants_noise_std_nudges_any_policy_and_streams_draw_apart(tmp_path, monkeypatch, capsys):
+    """``--noise-std`` is ``--noise-scale`` in action units (the same draws), for policies with no
+    trained std too; ``--noise-stream`` draws other noise on the same falls."""
+    ckpt = tiny_checkpoint(tmp_path)  # trained std 0.3
+    common = ["--grid", "tiny", "--episodes", "1", "--seed", "3"]
+    outs = {}
+    for tag, extra in [("scale", ["--policies", str(ckpt), "--noise-scale", "1"]), ("std", ["--policies", str(ckpt), "--noise-std", "0.3"]),
+                       ("k1", ["--policies", str(ckpt), "--noise-std", "0.3", "--noise-stream", "1"]),
+                       ("zero", ["--policies", "zero", "--noise-std", "0.05", "--noise-stream", "2"])]:
+        outs[tag] = tmp_path / tag
+        run_script("policy_variants.py", [*common, *extra, "--out", str(outs[tag])], monkeypatch)
+    assert "noise std 0.05) (noise stream 2)" in capsys.readouterr().out
+    assert episode_rows(outs["std"]) == episode_rows(outs["scale"]) != episode_rows(outs["k1"])
+    with pytest.raises(SystemExit, match="not both"):
+        run_script("policy_variants.py", [*common, "--policies", str(ckpt), "--noise-std", "0.1", "--noise-scale", "1",
+                                          "--out", str(tmp_path / "x")], monkeypatch)
+
+
 def test_failure_overlap_counts_shared_failures(tmp_path, monkeypatch, capsys):
     import json
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 import warnings
 import zipfile
 from collections.abc import Callable, Sequence
@@ -165,7 +166,18 @@ def load_torch_actor(p: Path) -> ActorMLP:
     elif isinstance(payload, dict) and ("actor_state_dict" in payload or "student_state_dict" in payload):
         from selfright.train.checkpoints import policy_hint
 
-        actor = _wrap(p, actor_from_checkpoint, payload, policy_hint(p, payload.get("infos")))
+        hint = policy_hint(p, payload.get("infos"))
+        missing = [what for key, what in (("action_reference", "action mapping"), ("motor", "motor model"))
+                   if key not in hint]
+        if missing:
+            print(
+                f"selfright: warning: training checkpoint {p} has no train_meta.json beside it and records no "
+                f"{' or '.join(missing)}; it runs as this evaluation's, which may not be what it trained with "
+                "(a DC-trained policy then loses its torque envelope). Keep checkpoints in their run folder, or "
+                "`selfright export` them.",
+                file=sys.stderr,
+            )
+        actor = _wrap(p, actor_from_checkpoint, payload, hint)
     else:
         raise ValueError(
             f"policy file {p} holds no actor; pass a file from `selfright export` or a training checkpoint"

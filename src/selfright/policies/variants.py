@@ -104,10 +104,11 @@ class EstimatedVelocity(Policy):
 
 
 class Noisy(Policy):
-    """``inner``'s mean action plus Gaussian noise of std ``std`` (per joint), seeded per episode."""
+    """``inner``'s mean action plus Gaussian noise of std ``std`` (per joint), seeded per episode;
+    ``stream`` picks one of independent noise sequences for the same episodes."""
 
-    def __init__(self, inner: Policy, std: torch.Tensor):
-        self.inner, self.std = inner, std.float()
+    def __init__(self, inner: Policy, std: torch.Tensor, stream: int = 0):
+        self.inner, self.std, self.stream = inner, std.float(), int(stream)
         self.groups, self.action_mapping = inner.groups, inner.action_mapping
         self.name = f"{inner.name} + noise"
         self.digest = inner.digest
@@ -118,7 +119,7 @@ class Noisy(Policy):
             raise ValueError("Noisy needs the episodes' seeds")
         self.inner.reset(ids, seeds)
         for i, s in zip(np.asarray(ids).tolist(), np.asarray(seeds).tolist(), strict=True):
-            self._rng[i] = np.random.default_rng([s, 7])
+            self._rng[i] = np.random.default_rng([s, 7] if self.stream == 0 else [s, 7, self.stream])
 
     def act(self, obs, ids, contexts):
         a = self.inner.act(obs, ids, contexts)

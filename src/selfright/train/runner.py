@@ -455,6 +455,9 @@ class TrainingRun:
             "obs_history": self.spec.train.distillation.student_history if student else 1,
             "gru_dim": self.spec.train.distillation.student_gru if student else 0,
             "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if student else [],
+            # the motor model it trains with: a checkpoint copied out of its run still runs as trained
+            "motor": self.spec.bench.robot.motor,
+            "motor_speed_rad_s": self.spec.bench.robot.motor_speed_rad_s or 0.0,
         }
 
     def _prev_devices(self) -> list[str | None]:
