@@ -10,6 +10,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --grid flat --seed 4 --out results/flat_teacher_noisy_s4
     python scripts/policy_variants.py --policies incline --noise-std 1e-6 --noise-stream 1 --grid incline \\
         --seed 4 --out results/incline_nudged_s4
+    python scripts/policy_variants.py --policies incline --sensor-noise 1 --grid incline \\
+        --seed 4 --out results/incline_noisy_sensors_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --grid flat \\
         --seed 4 --out results/ensemble_s4
     python scripts/policy_variants.py --policies runs/A/model_1.pt runs/B/model_2.pt --fallback-s 9 \\
@@ -46,6 +48,7 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.pose_blend import splayed_action, stance_action
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
+from selfright.policies.sensor_noise import NoisySensors
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import (
     Blinded, Braked, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, SideMirrored, Smoothed, trained_std,
@@ -67,6 +70,10 @@ class Args:
     noise_std: float = 0.0
     """Action noise of this std (action units), for any one policy; tiny values (1e-6) ask how
     many outcomes hang on a rounding-sized nudge (docs/training.md, forty-fifth session)."""
+    sensor_noise: float = 0.0
+    """Read the sensors with additive Gaussian noise of this many ``SENSOR_NOISE_STD`` (IMU 0.05 /
+    0.2 rad/s, joints 0.01 rad / 1.5 rad/s at 1; ``selfright.policies.variants.NoisySensors``), for
+    any policy or variant: how a policy trained on exact sensors fares on real ones. 0 = exact."""
     noise_stream: int = 0
     """Which of independent noise sequences ``--noise-scale`` / ``--noise-std`` draw (0 = the
     original one); other values give further draws on the same falls."""
@@ -176,7 +183,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
                         calm_steps=max(1, round(0.2 / dt)), max_steps=max(1, round(2.0 / dt)))
     if a.side_mirror:
         policy = SideMirrored(policy, a.side_mirror, cfg.robot.name)
-    return Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
+    policy = Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
+    return NoisySensors(policy, a.sensor_noise, robot.num_joints, a.noise_stream) if a.sensor_noise > 0 else policy
 
 
 def _make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
@@ -258,7 +266,9 @@ def main(a: Args) -> None:
         joined = " + ".join(a.policies)
     name = joined + (f" (noise x{a.noise_scale:g})" if a.noise_scale > 0 else "")
     name += f" (noise std {a.noise_std:g})" if a.noise_std > 0 else ""
-    name += f" (noise stream {a.noise_stream})" if a.noise_stream and (a.noise_scale > 0 or a.noise_std > 0) else ""
+    name += f" (sensor noise x{a.sensor_noise:g})" if a.sensor_noise > 0 else ""
+    name += (f" (noise stream {a.noise_stream})"
+             if a.noise_stream and (a.noise_scale > 0 or a.noise_std > 0 or a.sensor_noise > 0) else "")
     name += f" (first blind to {', '.join(a.blind_first)})" if a.blind_first else ""
     name += f" (first reads {a.estimate_first}'s velocity estimate)" if a.estimate_first else ""
     name += f" ({'last ' if a.smooth_last else ''}low-passed, beta {a.smooth:g})" if a.smooth > 0 else ""

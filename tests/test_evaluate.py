@@ -85,6 +85,54 @@ def test_learned_policy_results_do_not_depend_on_batching(tmp_path):
     assert b",1," in batched  # some episodes succeed: the trajectories are not trivial
 
 
+def test_sensor_noise_changes_what_a_policy_does_the_same_way_in_any_batch(tmp_path):
+    """``EvalConfig.sensor_noise`` runs every policy on noisy sensors, drawn per episode (so not
+    per batch), and is part of the run's identity: a clean run's folder is not resumed noisy."""
+    cfg = BenchmarkConfig(goal=GoalConfig(episode_s=1.0, hold_s=0.2))
+    noisy = dataclasses.replace(cfg, eval=EvalConfig(sensor_noise=3.0))
+    noisy_alone = dataclasses.replace(cfg, eval=EvalConfig(sensor_noise=3.0, batch_size=1))
+    run(tmp_path / "clean", policy="flat", episodes=2, cfg=cfg)
+    run(tmp_path / "noisy", policy="flat", episodes=2, cfg=noisy)
+    run(tmp_path / "noisy_alone", policy="flat", episodes=2, cfg=noisy_alone)
+    rows = {k: (tmp_path / k / "episodes.csv").read_bytes() for k in ("clean", "noisy", "noisy_alone")}
+    assert rows["noisy"] == rows["noisy_alone"] != rows["clean"]
+    with pytest.raises(ResultsError):
+        run(tmp_path / "clean", policy="flat", episodes=2, cfg=noisy)
+
+
+def test_sensor_noise_reaches_the_sensed_columns_only():
+    import torch
+
+    from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns, sensor_noise_std
+    from selfright.policies.base import Policy
+    from selfright.policies.sensor_noise import NoisySensors
+
+    std = sensor_noise_std(12)
+    assert std.shape == (42,) and float(std[0]) == pytest.approx(0.05) and float(std[3]) == pytest.approx(0.2)
+    assert std[joint_vel_columns(12)].tolist() == pytest.approx([1.5 * JOINT_VEL_SCALE] * 12)
+    assert torch.all(std[prev_action_columns(12)] == 0)
+
+    class Echo(Policy):
+        groups, action_mapping, digest, name = ("student", "teacher"), None, None, "echo"
+
+        def reset(self, ids, seeds=None):
+            pass
+
+        def act(self, obs, ids, contexts):
+            self.seen = obs
+            return torch.zeros(len(ids), 12)
+
+    inner = Echo()
+    p = NoisySensors(inner, 1.0)
+    p.reset([0, 1], [5, 6])
+    obs = {"student": torch.zeros(2, 42), "teacher": torch.zeros(2, 79)}
+    p.act(obs, [0, 1], [None, None])
+    seen = inner.seen
+    assert torch.equal(seen["teacher"][:, :42], seen["student"]) and torch.all(seen["teacher"][:, 42:] == 0)
+    assert torch.all(seen["student"][:, prev_action_columns(12)] == 0) and seen["student"][:, :30].abs().min() > 0
+    assert not torch.equal(seen["student"][0], seen["student"][1])  # each episode its own draw
+
+
 def test_resume_refuses_a_different_run(reference, tmp_path):
     run(tmp_path)
     with pytest.raises(ResultsError, match="different run"):

@@ -656,6 +656,10 @@ def test_student_distils_a_fixed_stance_from_another_student(tmp_path: Path):
     with pytest.raises(ValueError, match="rescue-student"):
         TrainingRun(spec(tmp_path / "bad3", role="student", teacher=base,
                          train=dataclasses.replace(TINY, distillation=no_stance))).setup()
+    noisy = dataclasses.replace(TINY, distillation=stance,  # the stance labels would read noisy sensors
+                                randomization=dataclasses.replace(TINY.randomization, sensor_noise=1.0))
+    with pytest.raises(ValueError, match="sensor-noise"):
+        TrainingRun(spec(tmp_path / "bad4", role="student", teacher=base, train=noisy)).setup()
 
 
 def test_stance_teacher_hands_a_tilted_stall_to_the_rescue_student():

@@ -88,6 +88,21 @@ def test_step_shapes_rewards_and_factors(flat_worlds):
     env.close()
 
 
+def test_sensor_noise_reaches_the_student_only_and_leaves_the_episodes_alone(flat_worlds):
+    """``--train.randomization.sensor-noise``: the student observation is noisy, the teacher's
+    (the distillation's labels) exact, and the falls and randomisation are the clean run's."""
+    noisy_cfg = dataclasses.replace(TrainConfig(), randomization=RandomizationConfig(sensor_noise=1.0))
+    clean = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=2, seed=3)
+    noisy = RecoveryVecEnv(CFG, noisy_cfg, flat_worlds, num_envs=2, seed=3)
+    a, b = clean.get_observations(), noisy.get_observations()
+    torch.testing.assert_close(a["teacher"], b["teacher"])
+    torch.testing.assert_close(a["teacher"][:, :42], a["student"])
+    diff = b["student"] - a["student"]
+    assert diff[:, 3:6].abs().max() > 0.01 and diff[:, 30:].abs().max() == 0  # the gyro is noisy, the last action not
+    clean.close()
+    noisy.close()
+
+
 def test_time_out_resets_and_is_reported(flat_worlds):
     train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=0.1))  # 5 control steps
     env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)

@@ -37,6 +37,8 @@ class _Episodes:
     """Confined space: side walls this many body lengths apart (default: none)."""
     ground_timeconst: float = 0.02
     """Ground compliance: contact time constant (s); larger = softer."""
+    sensor_noise: float = 0.0
+    """Sensor noise: Gaussian noise on what the policy senses, in multiples of IMU gravity 0.05, gyro 0.2 rad/s, joint angles 0.01 rad, joint speeds 1.5 rad/s (default 0: exact sensors)."""
     hold_s: float = 1.0
     """Seconds the goal set must be held for success."""
     episode_s: float = 10.0
@@ -51,7 +53,7 @@ class _Episodes:
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(
             threads=self.threads, batch_size=batch_size, friction=self.friction, wall_gap_ratio=self.wall_gap_ratio,
-            ground_timeconst_s=self.ground_timeconst, hold_s=self.hold_s, episode_s=self.episode_s,
+            ground_timeconst_s=self.ground_timeconst, sensor_noise=self.sensor_noise, hold_s=self.hold_s, episode_s=self.episode_s,
             action_reference=self.action_reference, motor=self.motor,
         )
 

@@ -171,6 +171,10 @@ class EvalConfig:
     """Side walls at this gap / body length in every cell; ``None`` = open terrain."""
     ground_timeconst_s: float = 0.02
     """Ground contact time constant of every cell (s)."""
+    sensor_noise: float = 0.0
+    """Additive Gaussian noise on what every policy senses, as a multiple of
+    ``selfright.env.observations.SENSOR_NOISE_STD`` (``selfright.policies.sensor_noise``); 0 =
+    exact sensors, the benchmark's default."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -262,6 +266,12 @@ class RandomizationConfig:
     """PD damping multiplier ~ U(low, high) (dimensionless)."""
     mass_scale: tuple[float, float] = (0.9, 1.1)
     """Multiplier of every robot body's mass and inertia ~ U(low, high) (dimensionless)."""
+    sensor_noise: float = 0.0
+    """Additive Gaussian noise on the ``student`` observation each control step, as a multiple of
+    ``selfright.env.observations.SENSOR_NOISE_STD`` (IMU gravity 0.05, gyro 0.2 rad/s, joint angles
+    0.01 rad, joint speeds 1.5 rad/s at 1); what students and student-PPO actors read, and their
+    history frames. The teacher group (and so a distillation's labels) stays clean. 0 = noise-free
+    sensors, as every shipped policy trained (the benchmark's sensors are exact)."""
 
 
 @dataclass(frozen=True, kw_only=True)

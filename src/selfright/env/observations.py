@@ -23,6 +23,10 @@ SCAN_SPACING_M = 0.15
 """Spacing of the height scan (m), a square of 0.6 m side centred under the trunk."""
 JOINT_VEL_SCALE = 0.1
 """Joint velocities are multiplied by this to keep observations O(1)."""
+SENSOR_NOISE_STD = {"projected_gravity": 0.05, "ang_vel_rad_s": 0.2, "joint_pos_rad": 0.01, "joint_vel_rad_s": 1.5}
+"""Standard deviations of additive Gaussian sensor noise at scale 1, per sensor, in the sensors'
+units (the magnitudes common in legged-robot RL for IMU and joint encoders); the previous action
+is the policy's own and gets none. ``sensor_noise_std`` lays them out over the student columns."""
 
 
 def scan_offsets() -> np.ndarray:
@@ -47,6 +51,17 @@ def student_obs(rs: RobotState, nominal: torch.Tensor, prev_action: torch.Tensor
     """(n, 6 + 3J) sensor-only observation."""
     return torch.cat(
         [rs.projected_gravity, rs.ang_vel, rs.q - nominal, rs.qd * JOINT_VEL_SCALE, prev_action], dim=-1
+    )
+
+
+def sensor_noise_std(num_joints: int) -> torch.Tensor:
+    """(6 + 3J,) noise std of each ``student`` column at scale 1 (``SENSOR_NOISE_STD``, joint
+    velocities scaled by ``JOINT_VEL_SCALE`` as the observation is)."""
+    n = SENSOR_NOISE_STD
+    return torch.tensor(
+        [n["projected_gravity"]] * 3 + [n["ang_vel_rad_s"]] * 3 + [n["joint_pos_rad"]] * num_joints
+        + [n["joint_vel_rad_s"] * JOINT_VEL_SCALE] * num_joints + [0.0] * num_joints,
+        dtype=torch.float32,
     )
 
 

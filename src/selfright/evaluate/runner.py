@@ -137,6 +137,10 @@ def rollout_batch(
     ``policy`` until every episode is done; returns which episodes succeeded. ``on_start()``
     runs once the falls have settled, ``on_step(active, out)`` sees each control step's output
     for the slots still running (diagnostics)."""
+    if env.cfg.eval.sensor_noise > 0:
+        from selfright.policies.sensor_noise import NoisySensors
+
+        policy = NoisySensors(policy, env.cfg.eval.sensor_noise, env.robot.num_joints)
     ids = np.arange(len(seeds))
     env.reset(ids, cell_index, [np.random.default_rng(s) for s in seeds])
     if on_start is not None:

@@ -37,6 +37,7 @@ from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m, upright
+from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
@@ -87,6 +88,11 @@ class RecoveryVecEnv(VecEnv):
         self.max_episode_length = int(round(train.episode.episode_s / self.dt))
         self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long)
         self.rng = np.random.default_rng(seed)
+        noise = train.randomization.sensor_noise if train.randomization.enabled else 0.0
+        self.sensor_noise_std = noise * sensor_noise_std(self.env.robot.num_joints) if noise > 0 else None
+        """(6 + 3J,) std of the noise on the student observation; None = clean sensors."""
+        self.noise_rng = np.random.default_rng([*np.atleast_1d(seed).tolist(), 0x5E45])
+        """The sensor noise's own stream, so turning it on leaves every episode's draws alone."""
         self.randomizer = ModelRandomizer(worlds[0].model, self.env.robot) if train.randomization.enabled else None
         robot = self.env.robot
         self.joint_low = torch.tensor(robot.joint_low, dtype=torch.float32)
@@ -339,6 +345,9 @@ class RecoveryVecEnv(VecEnv):
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
         groups = self.env.observe()
+        if self.sensor_noise_std is not None:
+            z = self.noise_rng.standard_normal(tuple(groups["student"].shape), dtype=np.float32)
+            groups["student"] = groups["student"] + self.sensor_noise_std * torch.from_numpy(z)
         if self.student_frames is not None:
             groups[student_group(self.student_frames.frames)] = self.student_frames.push(np.arange(self.num_envs), groups["student"])
         return TensorDict(groups, batch_size=[self.num_envs]).to(self.device)
