@@ -98,6 +98,14 @@ def test_sensor_noise_changes_what_a_policy_does_the_same_way_in_any_batch(tmp_p
     assert rows["noisy"] == rows["noisy_alone"] != rows["clean"]
     with pytest.raises(ResultsError):
         run(tmp_path / "clean", policy="flat", episodes=2, cfg=noisy)
+    # a folder written before the field existed ran with exact sensors, and resumes as such
+    path = tmp_path / "clean" / "run.json"
+    old = json.loads(path.read_text())
+    del old["config"]["eval"]["sensor_noise"]
+    path.write_text(json.dumps(old))
+    run(tmp_path / "clean", policy="flat", episodes=2, cfg=cfg)
+    with pytest.raises(ResultsError):
+        run(tmp_path / "clean", policy="flat", episodes=2, cfg=noisy)
 
 
 def test_sensor_noise_reaches_the_sensed_columns_only():

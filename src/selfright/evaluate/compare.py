@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from selfright.evaluate.metrics import wilson_interval
+from selfright.evaluate.results import with_added_defaults
 
 Key = tuple[int, int, int, int]
 """(run seed, slope level, roughness level, episode): one fall."""
@@ -51,7 +52,7 @@ def read_outcomes(folders: list[Path] | tuple[Path, ...]) -> Outcomes:
         if not summary.exists() or not rows.exists():
             raise ValueError(f"{f} is not a finished selfright evaluate folder (no summary.json / episodes.csv)")
         s = json.loads(summary.read_text())
-        configs.append(s.get("config", {}))
+        configs.append(with_added_defaults(s.get("config", {})))
         name = f"{s['policy']} on {s['grid']}"
         with rows.open() as fh:
             for r in csv.DictReader(fh):

@@ -119,6 +119,22 @@ def write_json(path: Path, data: dict[str, Any]) -> None:
     os.replace(tmp, path)
 
 
+ADDED_OFF_BY_DEFAULT = {("eval", "sensor_noise"): 0.0}
+"""Configuration fields added after results folders were written, whose default is what the code
+did before them (off): a recorded configuration without one ran with that value. (Fields whose
+default changed behaviour, such as the hard joint stops, are not here: their absence means the
+old behaviour, not the new default.)"""
+
+
+def with_added_defaults(config: dict[str, Any]) -> dict[str, Any]:
+    """``config`` (a recorded ``BenchmarkConfig``) with the ``ADDED_OFF_BY_DEFAULT`` fields it lacks."""
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in config.items()}
+    for (section, name), value in ADDED_OFF_BY_DEFAULT.items():
+        if isinstance(out.get(section), dict):
+            out[section].setdefault(name, value)
+    return out
+
+
 def check_run_identity(out: Path, identity: dict[str, Any]) -> None:
     """Refuse to resume into a directory that holds a different run."""
     path = out / "run.json"
@@ -127,6 +143,8 @@ def check_run_identity(out: Path, identity: dict[str, Any]) -> None:
             old = json.loads(path.read_text())
         except json.JSONDecodeError as e:
             raise ResultsError(f"{path} is corrupt ({e}); use a fresh --out directory") from e
+        if isinstance(old.get("config"), dict):
+            old = {**old, "config": with_added_defaults(old["config"])}
         if old != identity:
             diff = sorted(k for k in set(old) | set(identity) if old.get(k) != identity.get(k))
             raise ResultsError(
