@@ -14,6 +14,7 @@ import torch
 
 from selfright.env.observations import sensor_noise_std
 from selfright.policies.base import Policy
+from selfright.policies.slots import SlotNoise
 
 
 class NoisySensors(Policy):
@@ -30,19 +31,15 @@ class NoisySensors(Policy):
         self.std = float(scale) * sensor_noise_std(num_joints)
         self.groups, self.action_mapping, self.digest = inner.groups, inner.action_mapping, inner.digest
         self.name = f"{inner.name} (sensor noise x{scale:g})"
-        self._rng: dict[int, np.random.Generator] = {}
+        self._noise = SlotNoise(11, self.stream)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
-        if seeds is None:
-            raise ValueError("NoisySensors needs the episodes' seeds")
+        self._noise.reset(ids, seeds, "NoisySensors")
         self.inner.reset(ids, seeds)
-        for i, s in zip(np.asarray(ids).tolist(), np.asarray(seeds).tolist(), strict=True):
-            self._rng[i] = np.random.default_rng([s, 11, self.stream])
 
     def act(self, obs, ids, contexts):
         d = len(self.std)
-        z = np.stack([self._rng[i].standard_normal(d) for i in np.asarray(ids).tolist()])
-        noise = self.std * torch.as_tensor(z, dtype=torch.float32)
+        noise = self.std * self._noise.draw(ids, d)
         noisy = dict(obs)
         if "student" in obs:
             noisy["student"] = obs["student"] + noise

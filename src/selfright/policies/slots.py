@@ -1,7 +1,7 @@
 """Per-slot buffers of deployed policies: a tensor with one row per env slot that grows to
 the largest slot index seen (evaluation hands out slot ids; training has a fixed number).
 Shared by ``ObsHistory``, ``HiddenStates``, ``StallSwitch``, ``TiltSwitch``, ``Smoothed`` and
-``TorqueEnvelope``."""
+``TorqueEnvelope``; ``SlotNoise`` draws per-episode Gaussian noise for ``Noisy`` and ``NoisySensors``."""
 
 from __future__ import annotations
 
@@ -44,3 +44,23 @@ class LastActions:
         """Slots ``ids`` start an episode."""
         t = self.slots(ids)  # before reading self.fresh: it may grow
         self.fresh[t] = True
+
+
+class SlotNoise:
+    """Per env slot: a Gaussian generator seeded from the slot's episode seed and a fixed
+    ``salt``, so a wrapper's noise depends on the episode, not on which batch or slot it ran in."""
+
+    def __init__(self, *salt: int):
+        self.salt = [int(x) for x in salt]
+        self._rng: dict[int, np.random.Generator] = {}
+
+    def reset(self, ids: np.ndarray, seeds: np.ndarray | None, who: str) -> None:
+        if seeds is None:
+            raise ValueError(f"{who} needs the episodes' seeds")
+        for i, s in zip(np.asarray(ids).tolist(), np.asarray(seeds).tolist(), strict=True):
+            self._rng[i] = np.random.default_rng([s, *self.salt])
+
+    def draw(self, ids: np.ndarray, dim: int) -> torch.Tensor:
+        """(k, dim) standard normal draws, one row per slot in ``ids``."""
+        z = np.stack([self._rng[i].standard_normal(dim) for i in np.asarray(ids).tolist()])
+        return torch.as_tensor(z, dtype=torch.float32)

@@ -19,7 +19,7 @@ from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.history import ObsHistory
 from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
-from selfright.policies.slots import LastActions, grown, slot_index
+from selfright.policies.slots import LastActions, SlotNoise, grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
 from selfright.train.symmetry import group_mirrors, mirror
 
@@ -108,23 +108,19 @@ class Noisy(Policy):
     ``stream`` picks one of independent noise sequences for the same episodes."""
 
     def __init__(self, inner: Policy, std: torch.Tensor, stream: int = 0):
-        self.inner, self.std, self.stream = inner, std.float(), int(stream)
+        self.inner, self.std = inner, std.float()
         self.groups, self.action_mapping = inner.groups, inner.action_mapping
         self.name = f"{inner.name} + noise"
         self.digest = inner.digest
-        self._rng: dict[int, np.random.Generator] = {}
+        self._noise = SlotNoise(7) if stream == 0 else SlotNoise(7, stream)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
-        if seeds is None:
-            raise ValueError("Noisy needs the episodes' seeds")
+        self._noise.reset(ids, seeds, "Noisy")
         self.inner.reset(ids, seeds)
-        for i, s in zip(np.asarray(ids).tolist(), np.asarray(seeds).tolist(), strict=True):
-            self._rng[i] = np.random.default_rng([s, 7] if self.stream == 0 else [s, 7, self.stream])
 
     def act(self, obs, ids, contexts):
         a = self.inner.act(obs, ids, contexts)
-        z = np.stack([self._rng[i].standard_normal(a.shape[1]) for i in np.asarray(ids).tolist()])
-        return a + self.std * torch.as_tensor(z, dtype=torch.float32)
+        return a + self.std * self._noise.draw(ids, a.shape[1])
 
 
 class Smoothed(Policy):
