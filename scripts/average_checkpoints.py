@@ -31,11 +31,8 @@ from pathlib import Path
 import torch
 import tyro
 
-from selfright.policies.actor import RSL_RL_NORMALIZER_EPS
+from selfright.policies.actor import RSL_RL_NORMALIZER_EPS, deployed_actor_key
 from selfright.train.checkpoints import policy_hint
-
-ACTOR_KEYS = ("student_ema_state_dict", "student_state_dict", "actor_state_dict")
-"""Where a checkpoint keeps its deployed actor, in the order ``actor_from_checkpoint`` reads them."""
 
 
 @dataclass(frozen=True)
@@ -47,14 +44,6 @@ class Args:
     fold_normaliser: bool = False
     """Fold each checkpoint's observation normaliser into its first layer before averaging
     (for runs that trained apart); the output's normaliser is the identity."""
-
-
-def actor_key(ckpt: dict) -> str:
-    """The key of the checkpoint's deployed actor (see ``ACTOR_KEYS``)."""
-    for key in ACTOR_KEYS:
-        if key in ckpt:
-            return key
-    raise SystemExit(f"checkpoint holds none of {', '.join(ACTOR_KEYS)}")
 
 
 def fold(sd: dict[str, torch.Tensor], eps: float = RSL_RL_NORMALIZER_EPS) -> dict[str, torch.Tensor]:
@@ -78,7 +67,10 @@ def average(paths: tuple[Path, ...], fold_normaliser: bool = False) -> dict:
     if len(paths) < 2:
         raise SystemExit("give at least two --checkpoints")
     ckpts = [torch.load(p, weights_only=True, map_location="cpu") for p in paths]
-    keys = {actor_key(c) for c in ckpts}
+    try:
+        keys = {deployed_actor_key(c) for c in ckpts}
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
     if len(keys) > 1:
         raise SystemExit(f"the checkpoints keep their actors under different keys: {sorted(keys)}")
     key = keys.pop()

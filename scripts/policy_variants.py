@@ -72,11 +72,11 @@ class Args:
     many outcomes hang on a rounding-sized nudge (docs/training.md, forty-fifth session)."""
     sensor_noise: float = 0.0
     """Read the sensors with additive Gaussian noise of this many ``SENSOR_NOISE_STD`` (IMU 0.05 /
-    0.2 rad/s, joints 0.01 rad / 1.5 rad/s at 1; ``selfright.policies.variants.NoisySensors``), for
+    0.2 rad/s, joints 0.01 rad / 1.5 rad/s at 1; ``selfright.policies.sensor_noise.NoisySensors``), for
     any policy or variant: how a policy trained on exact sensors fares on real ones. 0 = exact."""
     noise_stream: int = 0
-    """Which of independent noise sequences ``--noise-scale`` / ``--noise-std`` draw (0 = the
-    original one); other values give further draws on the same falls."""
+    """Which of independent noise sequences ``--noise-scale`` / ``--noise-std`` / ``--sensor-noise``
+    draw (0 = the original one); other values give further draws on the same falls."""
     fallback_s: float = 0.0
     """With two policies: the second takes over for this long (s) whenever the first has
     stalled, tilted over, for ``stall_s`` (``selfright.policies.variants.Fallback``); 0 = average them."""

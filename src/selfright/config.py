@@ -273,6 +273,11 @@ class RandomizationConfig:
     history frames. The teacher group (and so a distillation's labels) stays clean. 0 = noise-free
     sensors, as every shipped policy trained (the benchmark's sensors are exact)."""
 
+    @property
+    def active_sensor_noise(self) -> float:
+        """``sensor_noise`` where randomisation is on, else 0 (``enabled`` turns it off too)."""
+        return self.sensor_noise if self.enabled else 0.0
+
 
 @dataclass(frozen=True, kw_only=True)
 class BenchmarkConfig:

@@ -248,6 +248,19 @@ def _padded_rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) ->
 
 
 # --------------------------------------------------------------- checkpoints
+DEPLOYED_ACTOR_KEYS = ("student_ema_state_dict", "student_state_dict", "actor_state_dict")
+"""Where an rsl_rl checkpoint keeps the actor that deploys, first found first: a distilled
+student's weight average (``selfright.train.ema``), else its student, else the PPO actor."""
+
+
+def deployed_actor_key(ckpt: dict[str, Any]) -> str:
+    """The key of the checkpoint's deployed actor (``DEPLOYED_ACTOR_KEYS``); ``ValueError`` if none."""
+    for key in DEPLOYED_ACTOR_KEYS:
+        if key in ckpt:
+            return key
+    raise ValueError("checkpoint holds neither 'actor_state_dict' nor 'student_state_dict'")
+
+
 def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = None) -> ActorMLP:
     """The deployable actor of an rsl_rl checkpoint (the student if distilled, its weight
     average when the run kept one (``--train.distillation.ema-decay``), else the PPO actor).
@@ -257,14 +270,8 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
     Raises ``ValueError`` if the dict holds no actor.
     """
     hint = dict(hint or {})
-    if "student_ema_state_dict" in ckpt:  # the weight average of selfright.train.ema
-        sd, role = ckpt["student_ema_state_dict"], "student"
-    elif "student_state_dict" in ckpt:
-        sd, role = ckpt["student_state_dict"], "student"
-    elif "actor_state_dict" in ckpt:
-        sd, role = ckpt["actor_state_dict"], "teacher"
-    else:
-        raise ValueError("checkpoint holds neither 'actor_state_dict' nor 'student_state_dict'")
+    key = deployed_actor_key(ckpt)
+    sd, role = ckpt[key], "teacher" if key == "actor_state_dict" else "student"
     layers = _linear_layers(sd, "mlp")
     if not layers:
         raise ValueError("checkpoint actor has no MLP weights (mlp.<i>.weight)")

@@ -212,7 +212,7 @@ class TrainingRun:
         if d.stance_ramp_s > 0 and (s.role != "student" or d.fallback_teacher is not None or d.student_gru > 0):
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
                              "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
-        if d.stance_ramp_s > 0 and s.train.randomization.enabled and s.train.randomization.sensor_noise > 0:
+        if d.stance_ramp_s > 0 and s.train.randomization.active_sensor_noise > 0:
             raise ValueError("--train.randomization.sensor-noise with --train.distillation.stance-ramp-s: the stance labels "
                              "are a student's actions on the student observation, which the noise reaches; distil from "
                              "a privileged teacher (whose observation stays clean) to train under sensor noise")

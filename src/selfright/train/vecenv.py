@@ -88,7 +88,7 @@ class RecoveryVecEnv(VecEnv):
         self.max_episode_length = int(round(train.episode.episode_s / self.dt))
         self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long)
         self.rng = np.random.default_rng(seed)
-        noise = train.randomization.sensor_noise if train.randomization.enabled else 0.0
+        noise = train.randomization.active_sensor_noise
         self.sensor_noise_std = noise * sensor_noise_std(self.env.robot.num_joints) if noise > 0 else None
         """(6 + 3J,) std of the noise on the student observation; None = clean sensors."""
         self.noise_rng = np.random.default_rng([*np.atleast_1d(seed).tolist(), 0x5E45])
