@@ -656,10 +656,45 @@ def test_student_distils_a_fixed_stance_from_another_student(tmp_path: Path):
     with pytest.raises(ValueError, match="rescue-student"):
         TrainingRun(spec(tmp_path / "bad3", role="student", teacher=base,
                          train=dataclasses.replace(TINY, distillation=no_stance))).setup()
-    noisy = dataclasses.replace(TINY, distillation=stance,  # the stance labels would read noisy sensors
+    noisy = dataclasses.replace(TINY, distillation=stance,  # a rescue student would read noisy sensors
                                 randomization=dataclasses.replace(TINY.randomization, sensor_noise=1.0))
     with pytest.raises(ValueError, match="sensor-noise"):
-        TrainingRun(spec(tmp_path / "bad4", role="student", teacher=base, train=noisy)).setup()
+        TrainingRun(spec(tmp_path / "bad4", role="student", teacher=base,
+                         train=dataclasses.replace(noisy, distillation=rescued))).setup()
+    with pytest.raises(ValueError, match="--init-from"):  # only a stance distillation starts from another student
+        TrainingRun(spec(tmp_path / "bad5", role="student", teacher=tmp_path / "teacher", init_from=base)).setup()
+
+
+def test_stance_labels_read_exact_sensors_and_the_student_can_start_as_another(tmp_path: Path):
+    """Under --train.randomization.sensor-noise the stance labels come from the label student on the
+    exact observation (group ``LABEL_GROUP``) while the student reads noisy sensors; with --init-from
+    the student starts as that other student (its own history), and the card says both."""
+    from selfright.train.config import LABEL_GROUP
+    from selfright.train.student_ppo import load_student
+
+    _, base, _, base_file = _distil_tiny_student(tmp_path)
+    h2 = tmp_path / "student_h2"
+    run(spec(h2, role="student", teacher=tmp_path / "teacher",
+             train=dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, student_history=2))))
+    stance = dataclasses.replace(TINY.distillation, stance_ramp_s=0.02, stance_delay_s=1.0, stance_tilt_deg=179.0)
+    train = dataclasses.replace(TINY, distillation=stance,
+                                randomization=dataclasses.replace(TINY.randomization, sensor_noise=1.0))
+    out = tmp_path / "noisy"
+    r = TrainingRun(spec(out, role="student", teacher=base, init_from=h2, train=train))
+    r.setup()
+    obs = r.env.get_observations()
+    torch.testing.assert_close(obs[LABEL_GROUP], obs["teacher"][:, :42])  # exact, one frame as the base reads
+    assert (obs["student_history"][:, -42:] - obs[LABEL_GROUP]).abs().max() > 0.01  # the student's are noisy
+    exact = load_policy_file(base_file).module(obs[LABEL_GROUP].float())
+    torch.testing.assert_close(r.runner.alg.teacher(obs), exact, atol=1e-5, rtol=0)  # within the delay: the base
+    start = load_student(h2)(obs["student_history"].float())
+    torch.testing.assert_close(r.runner.get_inference_policy()(obs), start, atol=1e-5, rtol=0)  # a copy of h2
+    r.run()
+    r = run(spec(out, role="student", teacher=base, train=train, iterations=2, resume=True))  # keeps h2's network
+    assert load_policy_file(list_checkpoints(out)[-1][1]).module.meta.obs_history == 2
+    card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
+    assert f"started as a copy of the student `{h2}`" in card and "on exact sensors" in card
+    assert "**Sensor noise**: trained reading its sensors through additive Gaussian noise at scale 1" in card
 
 
 def test_stance_teacher_hands_a_tilted_stall_to_the_rescue_student():

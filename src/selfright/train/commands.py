@@ -41,7 +41,10 @@ class TrainArgs:
     """Teacher: start a new run from another teacher's weights (actor, critic, observation
     normaliser; fresh optimiser, iteration 0), e.g. rough/incline teachers from the flat one.
     Student-ppo: the distilled student to go on from (a student run or checkpoint, a policy
-    file, or a shipped name such as incline)."""
+    file, or a shipped name such as incline). Student with --train.distillation.stance-ramp-s:
+    the student to start as (its network and history) instead of a copy of the --teacher
+    student, e.g. one trained under --train.randomization.sensor-noise while the labels come from
+    a student trained on exact sensors (labels always read the exact sensors)."""
     seed: int = 0
     """Seed of the terrain tiles, the episodes and the network initialisation."""
     physics_threads: int = 1

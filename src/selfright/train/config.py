@@ -454,6 +454,14 @@ def student_group(history: int) -> str:
     return "student" if history <= 1 else "student_history"
 
 
+LABEL_GROUP = "student_exact"
+"""Observation group of the student that labels a stance distillation
+(``--train.distillation.stance-ramp-s``): the ``student`` observation *before* any sensor noise,
+its frames stacked as that student reads them. Labels are computed from the exact state, so a
+student trained under ``--train.randomization.sensor-noise`` learns what the label student does on
+exact sensors, not what it does on noisy ones."""
+
+
 def _symmetry_cfg(p: PPOConfig) -> dict[str, Any] | None:
     """rsl_rl's ``symmetry_cfg`` (None when neither augmentation nor mirror loss is on)."""
     if not p.symmetry_augmentation and p.mirror_loss_coef == 0.0:

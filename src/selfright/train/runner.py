@@ -46,7 +46,7 @@ from selfright.train.checkpoints import (
     read_meta,
     with_std_head,
 )
-from selfright.train.config import PolicyConfig, Role, TrainConfig, student_group
+from selfright.train.config import LABEL_GROUP, PolicyConfig, Role, TrainConfig, student_group
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
@@ -77,7 +77,8 @@ class RunSpec:
     teacher: Path | None
     physics_threads: int
     init_from: Path | None = None
-    """Teacher weights to start a new teacher run from (a fine-tuning curriculum)."""
+    """Weights to start a new run from: a teacher's (a fine-tuning curriculum), or a student's
+    (``student-ppo``, or a stance distillation that starts as another student than its labeller)."""
     torch_threads: int
     device: str = "cpu"
     """Torch device of the networks (physics stays on the CPU)."""
@@ -212,10 +213,9 @@ class TrainingRun:
         if d.stance_ramp_s > 0 and (s.role != "student" or d.fallback_teacher is not None or d.student_gru > 0):
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
                              "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
-        if d.stance_ramp_s > 0 and s.train.randomization.active_sensor_noise > 0:
-            raise ValueError("--train.randomization.sensor-noise with --train.distillation.stance-ramp-s: the stance labels "
-                             "are a student's actions on the student observation, which the noise reaches; distil from "
-                             "a privileged teacher (whose observation stays clean) to train under sensor noise")
+        if d.rescue_student is not None and s.train.randomization.active_sensor_noise > 0:
+            raise ValueError("--train.distillation.rescue-student reads the student observation, which "
+                             "--train.randomization.sensor-noise reaches; its labels would be noisy")
         if d.rescue_student is not None and d.stance_ramp_s <= 0:
             raise ValueError("--train.distillation.rescue-student labels a stance student's stalls: it needs "
                              "--train.distillation.stance-ramp-s (and --teacher STUDENT)")
@@ -230,8 +230,9 @@ class TrainingRun:
             if s.train.ppo.symmetry_augmentation or s.train.ppo.mirror_loss_coef:
                 raise ValueError("symmetry augmentation mirrors the teacher observations; not with --role student-ppo")
         if s.init_from is not None:
-            if s.role == "student":
-                raise ValueError("--init-from is for teachers and student-ppo runs; a student starts from --teacher")
+            if s.role == "student" and d.stance_ramp_s <= 0:
+                raise ValueError("--init-from is for teachers, student-ppo runs and stance distillations; a student "
+                                 "starts from --teacher")
             if s.resume:
                 raise ValueError("--init-from starts a new run; drop --resume (a resumed run keeps its own weights)")
             if not s.init_from.exists() and s.role == "teacher":
@@ -258,8 +259,14 @@ class TrainingRun:
         if s.role == "student" and s.train.distillation.stance_ramp_s > 0:  # the teacher is a student
             flag = "--teacher (with --train.distillation.stance-ramp-s)"
             self.stance_base = load_student(self.teacher_ckpt, flag)
-            s = self.spec = replace(s, train=student_train_config(s.train, self.stance_base))
             self._check_student_mapping(self.stance_base, flag)
+            if s.init_from is not None:  # the student starts as this one (its network, history), not as the base
+                self.init_student = load_student(s.init_from, "--init-from")
+                self._check_student_mapping(self.init_student)
+                self.init_ckpt = s.init_from
+            elif self.resume_ckpt is not None:  # a resumed run keeps its own network, whatever it started from
+                self.init_student = load_student(self.resume_ckpt, "--resume")
+            s = self.spec = replace(s, train=student_train_config(s.train, self.init_student or self.stance_base))
             teacher_policy = s.train.policy  # (rsl_rl's own teacher is built, then replaced by StanceTeacher)
         elif s.role in ("student", "student-ppo"):
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy,
@@ -281,7 +288,7 @@ class TrainingRun:
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
         self.env = RecoveryVecEnv(
             bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
-            device=s.device,
+            device=s.device, label_history=self.stance_base.meta.obs_history if self.stance_base is not None else 0,
         )
         ep = s.train.episode
         frozen, side = (ep.upright_policy, "upright") if ep.upright_policy is not None else (ep.tilted_policy, "tilted")
@@ -394,13 +401,13 @@ class TrainingRun:
             rescue = dict(rescue=net.to(s.device).eval(), rescue_group=student_group(net.meta.obs_history),
                           rescue_switch=StallSwitch(round(d.stall_s / dt), round(d.rescue_s / dt), None, robot.num_joints),
                           rescue_offset=offset)
-        teacher = StanceTeacher(base, student_group(d.student_history), s.num_envs, d.stance_tilt_deg,
+        teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
                                 weight=d.stance_weight, **rescue)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:
-            sd = teacher_checkpoint(self.stance_base)["actor_state_dict"]
+            sd = teacher_checkpoint(self.init_student or self.stance_base)["actor_state_dict"]
             if "obs_normalizer.count" in sd:  # the copied statistics move as slowly as a long run's
                 sd["obs_normalizer.count"] = torch.tensor(10**6)
             own = alg.student.state_dict()

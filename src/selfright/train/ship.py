@@ -148,7 +148,26 @@ def _stance_words(meta: dict[str, Any]) -> str:
             f"for {d.get('stance_delay_s', 2.0):g} s"
             + (f"; a robot that has lain still, tilted over, for {d.get('stall_s', 0.5):g} s is labelled for "
                f"{d.get('rescue_s', 1.0):g} s by the student `{d['rescue_student']}`" if d.get("rescue_student") else "")
-            + ", and it started as a copy of that student (**not the seed's recipe**)")
+            + (" on exact sensors" if _sensor_noise(meta) else "")
+            + (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
+               else ", and it started as a copy of that student")
+            + " (**not the seed's recipe**)")
+
+
+def _sensor_noise(meta: dict[str, Any]) -> float:
+    """The sensor-noise scale the run trained its student observation under (0 = exact sensors)."""
+    r = (meta.get("train_config") or {}).get("randomization") or {}
+    return float(r.get("sensor_noise", 0.0)) if r.get("enabled", True) else 0.0
+
+
+def noise_lines(meta: dict[str, Any]) -> list[str]:
+    """A card line for a student trained under sensor noise (``--train.randomization.sensor-noise``)."""
+    scale = _sensor_noise(meta)
+    if not scale:
+        return []
+    return [f"- **Sensor noise**: trained reading its sensors through additive Gaussian noise at scale {scale:g} "
+            "(`selfright.env.observations.SENSOR_NOISE_STD`); the success below is on the benchmark's exact sensors, "
+            f"`selfright evaluate --sensor-noise {scale:g}` scores it through the noise"]
 
 
 def _lineage(meta: dict[str, Any], teacher: str | None, label_words: str) -> str:
@@ -183,15 +202,18 @@ def model_card(
            "privileged velocity, whose estimate its MLP reads)" if actor.estimator_dims else ")")
         + _lineage(meta, teacher, label_words),
         f"- **Training context**: {meta.get('context')}"
-        + (f"; initialised from the teacher `{meta['init_from']}`" if meta.get("init_from") and not ppo_student else ""),
+        + (f"; initialised from the teacher `{meta['init_from']}`"
+           if meta.get("init_from") and meta.get("role") == "teacher" else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
         + _budget("the student it started from", meta.get("init_from") if ppo_student else None)
         + _budget("its teacher", teacher)
         + _budget("its fallback teacher", fallback)
-        + _budget("before that, its initialisation", None if ppo_student else meta.get("init_from")),
+        + _budget("before that, its initialisation", meta.get("init_from") if meta.get("role") == "teacher" else None)
+        + _budget("the student it started as", meta.get("init_from") if meta.get("role") == "student" else None),
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
         *motor_lines(meta),
+        *noise_lines(meta),
         f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",

@@ -44,7 +44,7 @@ from selfright.env.rewards import RewardContext, reward_weights, standing_height
 from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
-from selfright.train.config import TrainConfig, student_group
+from selfright.train.config import LABEL_GROUP, TrainConfig, student_group
 from selfright.train.stand_starts import StandDraw, stand_starts
 from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StartMemory, StuckEnds
 
@@ -66,6 +66,8 @@ class RecoveryVecEnv(VecEnv):
         threads: physics worker threads.
         device: torch device the observations, rewards and dones are returned on (the
             networks' device; the simulation and its bookkeeping stay on the CPU).
+        label_history: frames of the exact student observation to stack as group
+            ``LABEL_GROUP`` (0 = none), for a student labelling a stance distillation.
     """
 
     def __init__(
@@ -77,6 +79,7 @@ class RecoveryVecEnv(VecEnv):
         seed: int | tuple[int, ...],
         threads: int = 1,
         device: str = "cpu",
+        label_history: int = 0,
     ):
         self.env = RecoveryEnv(cfg, worlds, num_envs, threads=threads)
         self.train_cfg = train
@@ -151,6 +154,9 @@ class RecoveryVecEnv(VecEnv):
         self.student_frames = ObsHistory(frames, group_dim("student"), num_envs) if frames > 1 else None
         """The last ``student_history`` student observations of each slot (group
         ``student_group(frames)``), for a student that reads a short history."""
+        self.label_frames = ObsHistory(label_history, group_dim("student"), num_envs) if label_history > 0 else None
+        """The last ``label_history`` *exact* student observations of each slot (group
+        ``LABEL_GROUP``), for a student that labels a stance distillation; None = not asked for."""
         self.slot_start: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
         self.replayed = torch.zeros(num_envs, dtype=torch.bool)
         self.prepare_starts = ep.prepare_starts
@@ -327,6 +333,8 @@ class RecoveryVecEnv(VecEnv):
         self.upright_since_fall[t] = False
         if self.student_frames is not None:
             self.student_frames.reset(ids)
+        if self.label_frames is not None:  # (a restart at a recorded arrival restarts it too)
+            self.label_frames.reset(ids)
         if self.arrival_share > 0:  # a start already upright (an arrival, a standing start) records none
             self.arrived[t] = env.robot_state(ids).up_z > self.arrival_cos
         for j, m in enumerate(draw.memory or []):
@@ -345,6 +353,8 @@ class RecoveryVecEnv(VecEnv):
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
         groups = self.env.observe()
+        if self.label_frames is not None:  # before the noise
+            groups[LABEL_GROUP] = self.label_frames.push(np.arange(self.num_envs), groups["student"])
         if self.sensor_noise_std is not None:
             z = self.noise_rng.standard_normal(tuple(groups["student"].shape), dtype=np.float32)
             groups["student"] = groups["student"] + self.sensor_noise_std * torch.from_numpy(z)
