@@ -695,6 +695,18 @@ def test_stance_labels_read_exact_sensors_and_the_student_can_start_as_another(t
     card = _evaluate_and_ship(tmp_path, list_checkpoints(out)[-1][1], out)
     assert f"started as a copy of the student `{h2}`" in card and "on exact sensors" in card
     assert "**Sensor noise**: trained reading its sensors through additive Gaussian noise at scale 1" in card
+    copy = tmp_path / "copy"  # no stance: a copy of the base onto noisy sensors, labelled by it on exact ones
+    c = TrainingRun(spec(copy, role="student", teacher=base, train=dataclasses.replace(train, distillation=TINY.distillation)))
+    c.setup()
+    obs = c.env.get_observations()
+    for _ in range(3):  # never blended, however long upright
+        torch.testing.assert_close(c.runner.alg.teacher(obs), load_policy_file(base_file).module(obs[LABEL_GROUP].float()),
+                                   atol=1e-5, rtol=0)
+    c.run()
+    assert json.loads((copy / "train_meta.json").read_text())["labels_from_student"]
+    with pytest.raises(ValueError, match="no fallback teacher"):
+        fb = dataclasses.replace(TINY.distillation, fallback_teacher=str(tmp_path / "teacher"))
+        TrainingRun(spec(tmp_path / "bad", role="student", teacher=base, train=dataclasses.replace(TINY, distillation=fb))).setup()
 
 
 def test_stance_teacher_hands_a_tilted_stall_to_the_rescue_student():

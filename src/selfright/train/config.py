@@ -328,7 +328,9 @@ class DistillationConfig:
     """> 0: distil a fixed stance into a student (``selfright.train.stance_teacher``). The
     ``--teacher`` is then a feed-forward *student* (run or checkpoint) whose own actions are
     the labels, blended over this long (s) to ``stance_pose`` once the trunk has been upright
-    within ``stance_tilt_deg`` for ``stance_delay_s``; the new student starts as a copy of it.
+    within ``stance_tilt_deg`` for ``stance_delay_s``; the new student starts as a copy of it
+    (or of ``--init-from``). 0 with a student ``--teacher``: the labels are its actions as they
+    are. Either way the labelling student reads the exact sensors, whatever the sensor noise.
     **Not** the seed's recipe (its labels add a hand-set stance; model cards say so). 0 = off."""
     stance_delay_s: float = 2.0
     """With ``stance_ramp_s``: how long the trunk must have been upright before the blend starts (s)."""

@@ -51,7 +51,13 @@ from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.stance_teacher import StanceTeacher
-from selfright.train.student_ppo import attach_critic_warmup, load_student, student_ppo_start, student_train_config
+from selfright.train.student_ppo import (
+    attach_critic_warmup,
+    is_student,
+    load_student,
+    student_ppo_start,
+    student_train_config,
+)
 from selfright.train.override_mask import attach_override_mask
 from selfright.train.run_lock import run_lock
 from selfright.train.upright_override import load_upright_override
@@ -210,9 +216,13 @@ class TrainingRun:
         if d.rough_teacher is not None and (s.role != "student" or d.fallback_teacher is None):
             raise ValueError("--train.distillation.rough-teacher shares the upright states with the --teacher of a student "
                              "run that has --train.distillation.fallback-teacher")
-        if d.stance_ramp_s > 0 and (s.role != "student" or d.fallback_teacher is not None or d.student_gru > 0):
+        if d.stance_ramp_s > 0 and s.role != "student":
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
                              "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
+        if self._labels_from_student() and (d.fallback_teacher is not None or d.student_gru > 0):
+            raise ValueError("a student labelled by another student (--teacher STUDENT"
+                             + (", --train.distillation.stance-ramp-s" if d.stance_ramp_s > 0 else "")
+                             + ") is one feed-forward network: no fallback teacher, no GRU")
         if d.rescue_student is not None and s.train.randomization.active_sensor_noise > 0:
             raise ValueError("--train.distillation.rescue-student reads the student observation, which "
                              "--train.randomization.sensor-noise reaches; its labels would be noisy")
@@ -230,15 +240,25 @@ class TrainingRun:
             if s.train.ppo.symmetry_augmentation or s.train.ppo.mirror_loss_coef:
                 raise ValueError("symmetry augmentation mirrors the teacher observations; not with --role student-ppo")
         if s.init_from is not None:
-            if s.role == "student" and d.stance_ramp_s <= 0:
-                raise ValueError("--init-from is for teachers, student-ppo runs and stance distillations; a student "
-                                 "starts from --teacher")
+            if s.role == "student" and not self._labels_from_student():
+                raise ValueError("--init-from is for teachers, student-ppo runs and students labelled by another "
+                                 "student (--teacher STUDENT); a student of a teacher starts afresh")
             if s.resume:
                 raise ValueError("--init-from starts a new run; drop --resume (a resumed run keeps its own weights)")
             if not s.init_from.exists() and s.role == "teacher":
                 raise ValueError(f"--init-from {s.init_from} not found; pass a teacher run folder or model_<it>.pt")
         if not s.resume and has_ckpt:
             raise ValueError(f"{self.out} already holds checkpoints; pass --resume to continue or choose another --out")
+
+    def _labels_from_student(self) -> bool:
+        """A ``--role student`` run whose ``--teacher`` is itself a student: its labels are that
+        student's actions on the exact sensors (``StanceTeacher``), blended to a stance with
+        ``--train.distillation.stance-ramp-s``; the new student starts as a copy of it (or of
+        ``--init-from``)."""
+        s = self.spec
+        if s.role != "student" or s.teacher is None:
+            return False
+        return s.train.distillation.stance_ramp_s > 0 or is_student(s.teacher)
 
     def setup(self) -> None:
         s = self.spec
@@ -256,8 +276,8 @@ class TrainingRun:
             self._check_student_mapping(self.init_student)
         teacher_policy, teacher_meta = (None, {})
         self.stance_base = None
-        if s.role == "student" and s.train.distillation.stance_ramp_s > 0:  # the teacher is a student
-            flag = "--teacher (with --train.distillation.stance-ramp-s)"
+        if self._labels_from_student():
+            flag = "--teacher (a student)"
             self.stance_base = load_student(self.teacher_ckpt, flag)
             self._check_student_mapping(self.stance_base, flag)
             if s.init_from is not None:  # the student starts as this one (its network, history), not as the base
@@ -384,12 +404,14 @@ class TrainingRun:
         alg.teacher_loaded = True
 
     def _install_stance_teacher(self, load_student_weights: bool) -> None:
-        """Replace rsl_rl's teacher by ``StanceTeacher`` around the ``--teacher`` student, and
-        (a new run) start the student as a copy of that student."""
+        """Replace rsl_rl's teacher by ``StanceTeacher`` around the ``--teacher`` student (reading
+        the exact sensors; blended to the stance with ``stance_ramp_s``), and (a new run) start the
+        student as a copy of that student, or of ``--init-from``."""
         s, alg, d = self.spec, self.runner.alg, self.spec.train.distillation
         robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
         base = self.stance_base.to(s.device).eval()
-        target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
+        target = (torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
+                  if d.stance_ramp_s > 0 else None)
         rescue = {}
         if d.rescue_student is not None:
             flag = "--train.distillation.rescue-student"
@@ -499,6 +521,7 @@ class TrainingRun:
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
             "command_start_iterations": [*self.prev_meta.get("command_start_iterations", []), self.start_it],
             "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
+            "labels_from_student": self.stance_base is not None,
             "init_from": str(self.init_ckpt) if self.init_ckpt else self.prev_meta.get("init_from"),
             "latest_checkpoint": str(checkpoint) if checkpoint else None,
             "policy": self.policy_meta(),

@@ -134,12 +134,18 @@ def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
     return fb, f" except for {d.get('fallback_s')} s after each stall, labelled by `{fb}`"
 
 
-def _stance_words(meta: dict[str, Any]) -> str:
-    """Words for a student distilled with stance labels (``--train.distillation.stance-ramp-s``); "" without."""
+def _student_label_words(meta: dict[str, Any]) -> str:
+    """Words for a student labelled by another student (``--teacher STUDENT``), its labels blended to
+    a stance with ``--train.distillation.stance-ramp-s``; "" for a student of a teacher."""
     d = (meta.get("train_config") or {}).get("distillation") or {}
     ramp = d.get("stance_ramp_s", 0.0)
+    start = (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
+             else ", and it started as a copy of that student")
+    exact = " on exact sensors" if _sensor_noise(meta) else ""
     if not ramp:
-        return ""
+        if not meta.get("labels_from_student"):
+            return ""
+        return f"; its labels are that student's own actions{exact}{start} (**not the seed's recipe**)"
     pose = ", ".join(f"{v:g}" for v in d.get("stance_pose", ()))
     weight = d.get("stance_weight", 1.0)
     share = "" if weight == 1.0 else f"{weight:g} of the way "
@@ -148,10 +154,7 @@ def _stance_words(meta: dict[str, Any]) -> str:
             f"for {d.get('stance_delay_s', 2.0):g} s"
             + (f"; a robot that has lain still, tilted over, for {d.get('stall_s', 0.5):g} s is labelled for "
                f"{d.get('rescue_s', 1.0):g} s by the student `{d['rescue_student']}`" if d.get("rescue_student") else "")
-            + (" on exact sensors" if _sensor_noise(meta) else "")
-            + (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
-               else ", and it started as a copy of that student")
-            + " (**not the seed's recipe**)")
+            + exact + start + " (**not the seed's recipe**)")
 
 
 def _sensor_noise(meta: dict[str, Any]) -> float:
@@ -189,7 +192,7 @@ def model_card(
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
     teacher = meta.get("teacher")
     fallback, fallback_words = _fallback_teacher(meta)
-    label_words = fallback_words + _stance_words(meta)  # how the distillation labels were made
+    label_words = fallback_words + _student_label_words(meta)  # how the distillation labels were made
     pol = meta.get("policy") or {}
     ppo_student = meta.get("role") == "student-ppo"
     lines = [

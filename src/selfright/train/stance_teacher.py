@@ -10,6 +10,11 @@ the trunk has been upright (projected gravity within ``tilt_deg`` of down) for a
 ``selfright.policies.variants.PoseUpright`` does at evaluation. The delay is a count of steps
 the student does not observe; what it learns is the expected label given its observation.
 
+Without a stance (``--teacher STUDENT`` and no ``stance_ramp_s``) the labels are the base
+student's own actions: a copy of the student, e.g. onto noisy sensors. The labelling student
+always reads the *exact* student observation (group ``LABEL_GROUP``), so a student trained under
+``--train.randomization.sensor-noise`` learns what the labeller does on exact sensors.
+
 Optionally a second, *rescue* student labels the states where the robot has lain still, tilted
 over (``StallSwitch`` without a height bar: IMU and joint speeds only), for a while: the
 incline student lies still on its side in about one miss in ten, and handing those stalls to
@@ -31,11 +36,12 @@ from selfright.policies.stall import StallSwitch, TiltSwitch
 class StanceTeacher(nn.Module):
     """``base``'s actions on the ``group`` observation, blended over ``ramp_steps`` to ``target``
     (J,) (action units; a share ``weight`` of the way) once the trunk has been upright for
-    ``delay_steps`` control steps; handed straight back when it tilts over. rsl_rl's
+    ``delay_steps`` control steps; handed straight back when it tilts over. ``target`` None: no
+    stance, the labels are ``base``'s actions (a student copied, e.g. onto noisy sensors). rsl_rl's
     ``Distillation`` calls ``reset(dones)`` every step."""
 
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
-                 ramp_steps: int, target: torch.Tensor, weight: float = 1.0, rescue: ActorMLP | None = None,
+                 ramp_steps: int, target: torch.Tensor | None, weight: float = 1.0, rescue: ActorMLP | None = None,
                  rescue_group: str = "student", rescue_switch: StallSwitch | None = None,
                  rescue_offset: torch.Tensor | np.ndarray | None = None):
         """``rescue`` (reading ``rescue_group``) labels where ``rescue_switch`` hands over; its
@@ -46,12 +52,12 @@ class StanceTeacher(nn.Module):
             raise ValueError("a rescue student needs its hand-over rule, and the rule a rescue student")
         self.rescue, self.rescue_group, self.rescue_switch = rescue, rescue_group, rescue_switch
         self.rescue_shift = ReferenceShift(rescue_offset, num_envs)
-        if ramp_steps < 1 or delay_steps < 0:
+        if target is not None and (ramp_steps < 1 or delay_steps < 0):
             raise ValueError(f"the stance needs a ramp of at least one step and a delay ≥ 0, got {ramp_steps}, {delay_steps}")
         self.base, self.group = base, group
         self.tilted = TiltSwitch(tilt_deg)
         self.delay, self.ramp, self.weight = int(delay_steps), int(ramp_steps), blend_weight(weight)
-        self.register_buffer("target", torch.as_tensor(target, dtype=torch.float32))
+        self.register_buffer("target", None if target is None else torch.as_tensor(target, dtype=torch.float32))
         self.count = torch.zeros(num_envs)
         """Control steps each env's trunk has been upright (CPU)."""
 
@@ -60,8 +66,9 @@ class StanceTeacher(nn.Module):
         x = obs["teacher"]  # the current frame's student columns come first (projected gravity at 0:3)
         up = ~self.tilted.step(x, torch.arange(x.shape[0]))
         self.count = upright_count(self.count, up)
-        labels = pose_blend(self.base(obs[self.group]), self.count, self.delay, self.ramp, self.target,
-                            weight=self.weight)
+        labels = self.base(obs[self.group])
+        if self.target is not None:
+            labels = pose_blend(labels, self.count, self.delay, self.ramp, self.target, weight=self.weight)
         if self.rescue is not None:
             use = self.rescue_switch.step(x, torch.arange(x.shape[0])).to(labels.device)
             if use.any():

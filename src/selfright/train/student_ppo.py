@@ -32,7 +32,7 @@ from selfright.policies.registry import shipped_path
 from selfright.train.checkpoints import latest_checkpoint
 from selfright.train.config import TrainConfig
 
-__all__ = ["load_student", "student_train_config", "student_ppo_start", "attach_critic_warmup"]
+__all__ = ["is_student", "load_student", "student_train_config", "student_ppo_start", "attach_critic_warmup"]
 
 
 def load_student(path: Path, flag: str = "--init-from") -> ActorMLP:
@@ -52,6 +52,15 @@ def load_student(path: Path, flag: str = "--init-from") -> ActorMLP:
     if actor.recurrent or actor.estimator is not None:
         raise ValueError(f"{flag} {p}: only feed-forward students (no GRU, no velocity estimator) here")
     return actor
+
+
+def is_student(path: Path) -> bool:
+    """Whether ``path`` (a run folder, a checkpoint or a policy file) holds a feed-forward or any
+    other student (an actor on the ``student`` observations), not a teacher."""
+    try:
+        return load_torch_actor(latest_checkpoint(path) if path.is_dir() else path).meta.obs_group == "student"
+    except ValueError:
+        return False
 
 
 def student_train_config(train: TrainConfig, student: ActorMLP) -> TrainConfig:
