@@ -22,7 +22,7 @@ from selfright.config import ActionConfig, BenchmarkConfig, RewardConfig, to_dic
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.learned import load_policy_file
 from selfright.train.commands import ExportArgs, export
-from selfright.train.config import DistillationConfig, EpisodeConfig, PPOConfig, TrainConfig
+from selfright.train.config import DistillationConfig, EpisodeConfig, PPOConfig, TrainConfig, ValidationConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.train.checkpoints import list_checkpoints
 from selfright.train.runner import RunSpec, TrainingRun
@@ -696,7 +696,8 @@ def test_stance_labels_read_exact_sensors_and_the_student_can_start_as_another(t
     assert f"started as a copy of the student `{h2}`" in card and "on exact sensors" in card
     assert "**Sensor noise**: trained reading its sensors through additive Gaussian noise at scale 1" in card
     copy = tmp_path / "copy"  # no stance: a copy of the base onto noisy sensors, labelled by it on exact ones
-    c = TrainingRun(spec(copy, role="student", teacher=base, train=dataclasses.replace(train, distillation=TINY.distillation)))
+    validated = dataclasses.replace(train, distillation=TINY.distillation, validation=ValidationConfig(episodes=1))
+    c = TrainingRun(spec(copy, role="student", teacher=base, train=validated))
     c.setup()
     obs = c.env.get_observations()
     for _ in range(3):  # never blended, however long upright
@@ -704,6 +705,8 @@ def test_stance_labels_read_exact_sensors_and_the_student_can_start_as_another(t
                                    atol=1e-5, rtol=0)
     c.run()
     assert json.loads((copy / "train_meta.json").read_text())["labels_from_student"]
+    summary = json.loads((copy / "validation" / "model_0" / "summary.json").read_text())
+    assert summary["config"]["eval"]["sensor_noise"] == 1.0  # chosen through the noise it trained under
     with pytest.raises(ValueError, match="no fallback teacher"):
         fb = dataclasses.replace(TINY.distillation, fallback_teacher=str(tmp_path / "teacher"))
         TrainingRun(spec(tmp_path / "bad", role="student", teacher=base, train=dataclasses.replace(TINY, distillation=fb))).setup()

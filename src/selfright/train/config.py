@@ -358,7 +358,8 @@ class DistillationConfig:
 class ValidationConfig:
     """Benchmark evaluation of every saved checkpoint (``selfright.train.validation``). A teacher
     trained beside a frozen policy (``EpisodeConfig.upright_policy`` or ``tilted_policy``) is
-    validated inside that composite, the policy it is trained to be part of."""
+    validated inside that composite, the policy it is trained to be part of. A student trained
+    under ``RandomizationConfig.sensor_noise`` is validated through the same noise."""
 
     episodes: int = 0
     """Episodes per grid cell for each checkpoint; 0 = no validation."""

@@ -565,6 +565,10 @@ class TrainingRun:
         if self.spec.role == "teacher" and (ep.upright_policy or ep.tilted_policy):
             side = "upright" if ep.upright_policy else "tilted"
             partner = validation.Partner(ep.upright_policy or ep.tilted_policy, side, ep.upright_tilt_deg)
+        bench = self.spec.bench
+        noise = self.spec.train.randomization.active_sensor_noise
+        if noise > 0 and self.spec.role != "teacher":  # a student is chosen on the sensors it trained for
+            bench = replace(bench, eval=replace(bench.eval, sensor_noise=noise))
         t = time.time()
         # Loading the checkpoint builds networks from torch's global generator, which also draws
         # the training's action noise; checkpoints fall on a wall-clock timer, so without the fork
@@ -573,7 +577,7 @@ class TrainingRun:
         with torch.random.fork_rng(devices=cuda):
             score = validation.evaluate_checkpoint(
                 ckpt, iteration=it, env_steps=env_steps, grid=v.grid or self.spec.context, episodes=v.episodes,
-                seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=self.spec.bench, partner=partner,
+                seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=bench, partner=partner,
             )
         best = validation.record(self.out, score, ckpt)
         writer = self.runner.logger.writer
@@ -584,7 +588,9 @@ class TrainingRun:
                 f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}"
                 + (f" {partner.label}" if partner else "")
                 + f": {score.successes}/{score.episodes} "
-                f"= {100 * score.success_rate:.1f} % (seed {v.seed}, {time.time() - t:.0f} s)"
+                f"= {100 * score.success_rate:.1f} % (seed {v.seed}"
+                + (f", sensor noise x{bench.eval.sensor_noise:g}" if bench.eval.sensor_noise > 0 else "")
+                + f", {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
                 flush=True,
             )
