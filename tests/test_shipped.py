@@ -113,6 +113,18 @@ def test_a_card_names_a_motor_model_other_than_the_default():
     assert "--motor dcmotor" in fast and "30 rad/s" in fast
 
 
+def test_a_card_measured_through_sensor_noise_says_so_and_how_to_reproduce_it():
+    from selfright.train.ship import noise_lines, success_lines
+
+    summary = {"overall": {"success_rate": 0.5, "success_ci95": [0.4, 0.6], "n": 64}, "grid": "flat", "seed": 0,
+               "episodes_per_cell": 64, "config": {"eval": {"sensor_noise": 0.5}}}
+    line, seed = success_lines("flat-sensor-noise", summary)
+    assert "through sensor noise ×0.5" in line and seed.endswith("--seed 0 --sensor-noise 0.5`")
+    exact = success_lines("flat", {**summary, "config": {"eval": {"sensor_noise": 0.0}}})
+    assert "noise" not in " ".join(exact)
+    assert noise_lines({}) == [] and "scale 1" in noise_lines({"train_config": {"randomization": {"sensor_noise": 1.0}}})[0]
+
+
 def test_a_card_names_the_machines_that_trained_its_checkpoint(tmp_path: Path):
     """A run resumed elsewhere after the shipped checkpoint: the card keeps that checkpoint's
     invocations and machines, not the run's latest one; shipping the latest names them all."""

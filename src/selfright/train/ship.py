@@ -268,8 +268,11 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     cpu = (summary.get("machine") or {}).get("cpu")
     motor = (((summary.get("config") or {}).get("robot") or {}).get("motor")) or "ideal"
     flags = "" if motor == "ideal" else f" --motor {motor}"
+    noise = float((((summary.get("config") or {}).get("eval") or {}).get("sensor_noise")) or 0.0)
+    flags += f" --sensor-noise {noise:g}" if noise > 0 else ""
     return [
-        f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`, N = {o['n']}): "
+        f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`"
+        + (f", through sensor noise ×{noise:g}" if noise > 0 else "") + f", N = {o['n']}): "
         f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
         f"mean TTR {ttr}, mean DTR {dtr}" + (f"; measured on {cpu}" if cpu else ""),
         f"{SEED_PREFIX}: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell; "
