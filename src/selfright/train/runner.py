@@ -84,7 +84,7 @@ class RunSpec:
     physics_threads: int
     init_from: Path | None = None
     """Weights to start a new run from: a teacher's (a fine-tuning curriculum), or a student's
-    (``student-ppo``, or a stance distillation that starts as another student than its labeller)."""
+    (``student-ppo``, or a student labelled by another student that starts as a third one)."""
     torch_threads: int
     device: str = "cpu"
     """Torch device of the networks (physics stays on the CPU)."""
@@ -275,18 +275,22 @@ class TrainingRun:
             s = self.spec = replace(s, train=student_train_config(s.train, self.init_student))
             self._check_student_mapping(self.init_student)
         teacher_policy, teacher_meta = (None, {})
-        self.stance_base = None
+        self.label_student = None
         if self._labels_from_student():
             flag = "--teacher (a student)"
-            self.stance_base = load_student(self.teacher_ckpt, flag)
-            self._check_student_mapping(self.stance_base, flag)
+            self.label_student = load_student(self.teacher_ckpt, flag)
+            self._check_student_mapping(self.label_student, flag)
+            motor = self.label_student.meta.motor
+            if motor and motor != s.bench.robot.motor:
+                print(f"warning: the labelling student was trained with --motor {motor}, this run uses "
+                      f"--motor {s.bench.robot.motor}: its labels are what it does in other dynamics")
             if s.init_from is not None:  # the student starts as this one (its network, history), not as the base
                 self.init_student = load_student(s.init_from, "--init-from")
                 self._check_student_mapping(self.init_student)
                 self.init_ckpt = s.init_from
             elif self.resume_ckpt is not None:  # a resumed run keeps its own network, whatever it started from
                 self.init_student = load_student(self.resume_ckpt, "--resume")
-            s = self.spec = replace(s, train=student_train_config(s.train, self.init_student or self.stance_base))
+            s = self.spec = replace(s, train=student_train_config(s.train, self.init_student or self.label_student))
             teacher_policy = s.train.policy  # (rsl_rl's own teacher is built, then replaced by StanceTeacher)
         elif s.role in ("student", "student-ppo"):
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy,
@@ -308,7 +312,7 @@ class TrainingRun:
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
         self.env = RecoveryVecEnv(
             bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
-            device=s.device, label_history=self.stance_base.meta.obs_history if self.stance_base is not None else 0,
+            device=s.device, label_history=self.label_student.meta.obs_history if self.label_student is not None else 0,
         )
         ep = s.train.episode
         frozen, side = (ep.upright_policy, "upright") if ep.upright_policy is not None else (ep.tilted_policy, "tilted")
@@ -337,7 +341,7 @@ class TrainingRun:
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
         if fallback is not None:
             self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
-        if self.stance_base is not None:
+        if self.label_student is not None:
             self._install_stance_teacher(load_student_weights=self.resume_ckpt is None)
         resumed_infos: dict = {}
         if self.resume_ckpt is not None:
@@ -345,7 +349,7 @@ class TrainingRun:
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
             self.env.restore_curriculum(resumed_infos.get("curriculum_level"))
         elif s.role == "student":
-            if fallback is None and self.stance_base is None:  # (else the teachers are loaded above)
+            if fallback is None and self.label_student is None:  # (else the teachers are loaded above)
                 r.load(str(self.teacher_ckpt), map_location=s.device)  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.role == "student-ppo":
             teacher = torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)
@@ -409,7 +413,7 @@ class TrainingRun:
         student as a copy of that student, or of ``--init-from``."""
         s, alg, d = self.spec, self.runner.alg, self.spec.train.distillation
         robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
-        base = self.stance_base.to(s.device).eval()
+        base = self.label_student.to(s.device).eval()
         target = (torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
                   if d.stance_ramp_s > 0 else None)
         rescue = {}
@@ -429,7 +433,7 @@ class TrainingRun:
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:
-            sd = teacher_checkpoint(self.init_student or self.stance_base)["actor_state_dict"]
+            sd = teacher_checkpoint(self.init_student or self.label_student)["actor_state_dict"]
             if "obs_normalizer.count" in sd:  # the copied statistics move as slowly as a long run's
                 sd["obs_normalizer.count"] = torch.tensor(10**6)
             own = alg.student.state_dict()
@@ -521,7 +525,7 @@ class TrainingRun:
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
             "command_start_iterations": [*self.prev_meta.get("command_start_iterations", []), self.start_it],
             "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
-            "labels_from_student": self.stance_base is not None,
+            "labels_from_student": self.label_student is not None,
             "init_from": str(self.init_ckpt) if self.init_ckpt else self.prev_meta.get("init_from"),
             "latest_checkpoint": str(checkpoint) if checkpoint else None,
             "policy": self.policy_meta(),
