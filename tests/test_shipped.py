@@ -52,12 +52,14 @@ def test_shipped_policy_onnx_matches_torch(name: str, tmp_path: Path):
         torch.testing.assert_close(out, actor(x), atol=1e-5, rtol=0)
 
 
-def test_sr_routes_each_context_to_its_policy():
-    sr = make_policy("sr", BenchmarkConfig())
+@pytest.mark.parametrize("mux, suffix", [("sr", ""), ("sr-sensor-noise", "-sensor-noise")])
+def test_sr_routes_each_context_to_its_policy(mux: str, suffix: str):
+    sr = make_policy(mux, BenchmarkConfig())
+    assert sr.name == mux
     obs = {"student": torch.randn(3, 42, generator=torch.Generator().manual_seed(1))}
     out = sr.act(obs, np.arange(3), ["flat", "rough", "incline"])
     for k, ctx in enumerate(["flat", "rough", "incline"]):
-        single = make_policy(ctx, BenchmarkConfig()).act({"student": obs["student"][k : k + 1]}, np.arange(1), [ctx])
+        single = make_policy(ctx + suffix, BenchmarkConfig()).act({"student": obs["student"][k : k + 1]}, np.arange(1), [ctx])
         torch.testing.assert_close(out[k : k + 1], single)
 
 

@@ -1,4 +1,4 @@
-"""Policies by name: baselines, shipped learned policies, the ``sr`` multiplexer, or a file."""
+"""Policies by name: baselines, shipped learned policies, the ``sr`` multiplexers, or a file."""
 
 from __future__ import annotations
 
@@ -13,6 +13,10 @@ from selfright.robots import get_robot
 
 BASELINES = ("zero", "random", "open-loop")
 CONTEXTS = ("flat", "rough", "incline")
+MULTIPLEXERS = {"sr": "", "sr-sensor-noise": "-sensor-noise"}
+"""The seed's π_SR over the shipped students of the three contexts (``sr``), and over their versions
+trained to read noisy sensors (``sr-sensor-noise``: ``flat-sensor-noise``, ...): name → suffix of
+its members' shipped names."""
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
 
 
@@ -23,7 +27,7 @@ def shipped_path(name: str) -> Path:
 
 def available_policies() -> list[str]:
     shipped = sorted(p.stem for p in CHECKPOINT_DIR.glob("*.pt")) if CHECKPOINT_DIR.exists() else []
-    extra = ["sr"] if all(shipped_path(c).exists() for c in CONTEXTS) else []
+    extra = [m for m, suffix in MULTIPLEXERS.items() if all(shipped_path(c + suffix).exists() for c in CONTEXTS)]
     return list(BASELINES) + shipped + extra
 
 
@@ -97,13 +101,16 @@ def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
         return OpenLoopPolicy(robot, cfg.action, cfg.sim.control_dt_s)
     from selfright.policies import learned  # torch-model loading only when needed
 
-    if name == "sr":
-        missing = [c for c in CONTEXTS if not shipped_path(c).exists()]
+    if name in MULTIPLEXERS:
+        members = {c: c + MULTIPLEXERS[name] for c in CONTEXTS}
+        missing = [m for m in members.values() if not shipped_path(m).exists()]
         if missing:
-            raise ValueError(f"policy 'sr' needs the shipped policies {', '.join(missing)}, which are not in this install")
+            raise ValueError(f"policy {name!r} needs the shipped policies {', '.join(missing)}, which are not in this install")
         from selfright.policies.multiplexer import ContextMultiplexer
 
-        return ContextMultiplexer({c: learned.load_policy_file(shipped_path(c)) for c in CONTEXTS})
+        mux = ContextMultiplexer({c: learned.load_policy_file(shipped_path(m)) for c, m in members.items()})
+        mux.name = name
+        return mux
     if shipped_path(name).exists():
         return learned.load_policy_file(shipped_path(name))
     if name.removesuffix("-teacher") in CONTEXTS:  # a learned policy by name, not shipped yet
