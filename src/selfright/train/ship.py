@@ -209,7 +209,7 @@ def model_card(
            if meta.get("init_from") and meta.get("role") == "teacher" else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
         + _budget("the student it started from", meta.get("init_from") if ppo_student else None)
-        + _budget("its teacher", teacher)
+        + _budget("the student that labelled it" if meta.get("labels_from_student") else "its teacher", teacher)
         + _budget("its fallback teacher", fallback)
         + _budget("before that, its initialisation", meta.get("init_from") if meta.get("role") == "teacher" else None)
         + _budget("the student it started as", meta.get("init_from") if meta.get("role") == "student" else None),
