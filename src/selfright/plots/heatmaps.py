@@ -177,6 +177,8 @@ def make_plots(out_dir: str | Path) -> list[Path]:
     if not cells:
         raise ValueError(f"{summary_path} has no cells; nothing to plot")
     tag = f"{summary.get('policy', '?')} on {summary.get('grid', '?')}"
+    noise = (((summary.get("config") or {}).get("eval") or {}).get("sensor_noise")) or 0.0
+    tag += f", sensor noise ×{noise:g}" if noise > 0 else ""
     n_ep = summary.get("episodes_per_cell")
     per_cell = f", {n_ep} episodes/cell" if n_ep else ""
     grid = build_grid(cells)
