@@ -169,8 +169,8 @@ def noise_lines(meta: dict[str, Any]) -> list[str]:
     if not scale:
         return []
     return [f"- **Sensor noise**: trained reading its sensors through additive Gaussian noise at scale {scale:g} "
-            "(`selfright.env.observations.SENSOR_NOISE_STD`); the success below is on the benchmark's exact sensors, "
-            f"`selfright evaluate --sensor-noise {scale:g}` scores it through the noise"]
+            f"(`selfright.env.observations.SENSOR_NOISE_STD`); `selfright evaluate --sensor-noise {scale:g}` scores it "
+            "through that noise, without the option on the benchmark's exact sensors"]
 
 
 def _lineage(meta: dict[str, Any], teacher: str | None, label_words: str) -> str:
