@@ -496,3 +496,20 @@ def test_lineage_of_each_shipped_policy_but_the_renamed_flat_teacher_starts_at_a
             continue
         run_script("lineage.py", ["--policy", card.stem], monkeypatch)
         assert " runs, " in capsys.readouterr().out.splitlines()[-1], card.stem
+
+
+def test_noise_sweep_tabulates_each_policy_at_each_scale_on_the_same_falls(tmp_path, monkeypatch, capsys):
+    import json
+
+    out = tmp_path / "sweep"
+    args = ["--policies", "zero", "flat", "--grid", "tiny", "--scales", "0", "2", "--episodes", "1", "--out", str(out)]
+    run_script("noise_sweep.py", args, monkeypatch)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == "| policy | noise 0 | noise 2 |" and len(lines) == 5
+    assert lines[3].startswith("| `zero` |") and lines[4].startswith("| `flat` |")
+    noisy = json.loads((out / "flat" / "noise2" / "s4" / "summary.json").read_text())
+    assert noisy["config"]["eval"]["sensor_noise"] == 2.0 and noisy["overall"]["n"] == 4
+    exact = json.loads((out / "flat" / "noise0" / "s4" / "summary.json").read_text())
+    assert exact["config"]["eval"]["sensor_noise"] == 0.0
+    run_script("noise_sweep.py", args, monkeypatch)  # a rerun reads the folders back
+    assert capsys.readouterr().out.splitlines() == lines
