@@ -135,6 +135,12 @@ def with_added_defaults(config: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def recorded_sensor_noise(summary: dict[str, Any]) -> float:
+    """The ``--sensor-noise`` scale a results folder's ``summary.json`` (or ``run.json``) was
+    evaluated at; 0 = exact sensors, also for folders written before the option existed."""
+    return float((((summary.get("config") or {}).get("eval") or {}).get("sensor_noise")) or 0.0)
+
+
 def check_run_identity(out: Path, identity: dict[str, Any]) -> None:
     """Refuse to resume into a directory that holds a different run."""
     path = out / "run.json"

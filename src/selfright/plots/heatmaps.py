@@ -22,6 +22,8 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
+from selfright.evaluate.results import recorded_sensor_noise  # noqa: E402
+
 TTR_BIN_S = 0.1
 """Histogram bin width for time-to-recover, in seconds."""
 DTR_BIN_M = 0.02
@@ -177,7 +179,7 @@ def make_plots(out_dir: str | Path) -> list[Path]:
     if not cells:
         raise ValueError(f"{summary_path} has no cells; nothing to plot")
     tag = f"{summary.get('policy', '?')} on {summary.get('grid', '?')}"
-    noise = (((summary.get("config") or {}).get("eval") or {}).get("sensor_noise")) or 0.0
+    noise = recorded_sensor_noise(summary)
     tag += f", sensor noise ×{noise:g}" if noise > 0 else ""
     n_ep = summary.get("episodes_per_cell")
     per_cell = f", {n_ep} episodes/cell" if n_ep else ""

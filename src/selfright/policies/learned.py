@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from selfright.policies.actor import (
+    DEPLOYED_ACTOR_KEYS,
     FILE_FORMAT,
     GROUP_BY_DIM,
     ActorMLP,
@@ -163,7 +164,7 @@ def load_torch_actor(p: Path) -> ActorMLP:
         ) from e
     if isinstance(payload, dict) and payload.get("format") == FILE_FORMAT:
         actor = _wrap(p, actor_from_payload, payload)
-    elif isinstance(payload, dict) and ("actor_state_dict" in payload or "student_state_dict" in payload):
+    elif isinstance(payload, dict) and any(k in payload for k in DEPLOYED_ACTOR_KEYS):
         from selfright.train.checkpoints import policy_hint
 
         hint = policy_hint(p, payload.get("infos"))

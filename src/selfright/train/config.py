@@ -458,8 +458,8 @@ def student_group(history: int) -> str:
 
 
 LABEL_GROUP = "student_exact"
-"""Observation group of the student that labels a stance distillation
-(``--train.distillation.stance-ramp-s``): the ``student`` observation *before* any sensor noise,
+"""Observation group of a student that labels another (``--teacher STUDENT``: a copy, or a
+stance distillation with ``--train.distillation.stance-ramp-s``): the ``student`` observation *before* any sensor noise,
 its frames stacked as that student reads them. Labels are computed from the exact state, so a
 student trained under ``--train.randomization.sensor-noise`` learns what the label student does on
 exact sensors, not what it does on noisy ones."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import functools
 import io
 import json
 import os
@@ -219,7 +220,7 @@ class TrainingRun:
         if d.stance_ramp_s > 0 and s.role != "student":
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
                              "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
-        if self._labels_from_student() and (d.fallback_teacher is not None or d.student_gru > 0):
+        if self.labels_from_student and (d.fallback_teacher is not None or d.student_gru > 0):
             raise ValueError("a student labelled by another student (--teacher STUDENT"
                              + (", --train.distillation.stance-ramp-s" if d.stance_ramp_s > 0 else "")
                              + ") is one feed-forward network: no fallback teacher, no GRU")
@@ -240,7 +241,7 @@ class TrainingRun:
             if s.train.ppo.symmetry_augmentation or s.train.ppo.mirror_loss_coef:
                 raise ValueError("symmetry augmentation mirrors the teacher observations; not with --role student-ppo")
         if s.init_from is not None:
-            if s.role == "student" and not self._labels_from_student():
+            if s.role == "student" and not self.labels_from_student:
                 raise ValueError("--init-from is for teachers, student-ppo runs and students labelled by another "
                                  "student (--teacher STUDENT); a student of a teacher starts afresh")
             if s.resume:
@@ -250,11 +251,12 @@ class TrainingRun:
         if not s.resume and has_ckpt:
             raise ValueError(f"{self.out} already holds checkpoints; pass --resume to continue or choose another --out")
 
-    def _labels_from_student(self) -> bool:
+    @functools.cached_property
+    def labels_from_student(self) -> bool:
         """A ``--role student`` run whose ``--teacher`` is itself a student: its labels are that
         student's actions on the exact sensors (``StanceTeacher``), blended to a stance with
         ``--train.distillation.stance-ramp-s``; the new student starts as a copy of it (or of
-        ``--init-from``)."""
+        ``--init-from``). Read once: it loads the teacher's file."""
         s = self.spec
         if s.role != "student" or s.teacher is None:
             return False
@@ -276,7 +278,7 @@ class TrainingRun:
             self._check_student_mapping(self.init_student)
         teacher_policy, teacher_meta = (None, {})
         self.label_student = None
-        if self._labels_from_student():
+        if self.labels_from_student:
             flag = "--teacher (a student)"
             self.label_student = load_student(self.teacher_ckpt, flag)
             self._check_student_mapping(self.label_student, flag)

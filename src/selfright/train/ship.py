@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from selfright.config import RewardConfig
+from selfright.evaluate.results import recorded_sensor_noise
 from selfright.policies.registry import CHECKPOINT_DIR
 
 if TYPE_CHECKING:
@@ -268,7 +269,7 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     cpu = (summary.get("machine") or {}).get("cpu")
     motor = (((summary.get("config") or {}).get("robot") or {}).get("motor")) or "ideal"
     flags = "" if motor == "ideal" else f" --motor {motor}"
-    noise = float((((summary.get("config") or {}).get("eval") or {}).get("sensor_noise")) or 0.0)
+    noise = recorded_sensor_noise(summary)
     flags += f" --sensor-noise {noise:g}" if noise > 0 else ""
     return [
         f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`"
