@@ -14,12 +14,29 @@ A run whose command says ``--iterations 100000`` was stopped by hand: train it t
 its child uses (``uses model_K.pt``: ``--iterations K+1``). A run that went on past the checkpoint its child used (``uses model_K.pt``), or the last run
 past the checkpoint that shipped (its card names it), is listed with all its steps, so the total
 is an upper bound where that happens.
+
+``--script`` prints that replay instead, as a bash script that does it for you:
+
+    python scripts/lineage.py --policy incline --script > retrain_incline.sh
+    EXTRA="--physics-threads 2" bash retrain_incline.sh   # rerun it to resume
+
+Every invocation of every run, in order, each stopped at the iteration where the next one began
+or where a child took its checkpoint (so each ``model_K.pt`` a child reads is written), the run
+folders under ``--prefix`` (``runs/retrain``) so the committed ones stay as they are. A step whose
+run already holds its last checkpoint is skipped; one with an earlier checkpoint goes on from it
+(``--resume``, without ``--init-from``). ``EXTRA`` is appended to every command (the last value of
+a flag wins): the GPU machine's invocations say ``--device cuda --physics-threads 8``, so on a
+laptop give ``EXTRA="--device cpu --physics-threads 2"``. A source with no run meta here (a
+shipped policy's file, a run whose meta was never committed) is read from where the meta names
+it, and the script says so; a run of several invocations whose meta does not record where each
+began (metas written before 2026-11-23) cannot be replayed and is refused.
 """
 
 from __future__ import annotations
 
 import json
 import re
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,6 +56,10 @@ class Args:
     """A run folder (or a checkpoint in one) instead of ``--policy``."""
     root: Path = Path(".")
     """Where the ``runs/`` paths in the metas are relative to (the repository root)."""
+    script: bool = False
+    """Print a resumable bash script that retrains the lineage instead of listing it."""
+    prefix: str = "runs/retrain"
+    """With ``--script``: the folder the retrained runs go in (each keeps its name)."""
 
 
 def card_run(name: str) -> Path:
@@ -76,23 +97,53 @@ def run_dir(path: str, root: Path) -> Path | None:
     return d if (d / META).exists() else None
 
 
-def walk(run: Path, root: Path, seen: dict[Path, dict], order: list[Path], edges: dict[Path, list[str]]) -> None:
+@dataclass
+class Lineage:
+    """The runs behind a policy, oldest first, and what each one's children took from it."""
+
+    order: list[Path]
+    """Run folders (resolved), each after the runs it descends from."""
+    metas: dict[Path, dict[str, Any]]
+    """Each run's ``train_meta.json``."""
+    edges: dict[Path, list[str]]
+    """Each run's sources, as the listing prints them."""
+    uses: dict[Path, list[int | None]]
+    """Per run, the iteration of each checkpoint a child read from it (``None``: the folder)."""
+    missing: list[str]
+    """Sources with no run meta here (a shipped policy's file, an uncommitted run)."""
+
+
+def checkpoint_iteration(path: str) -> int | None:
+    """K of ``…/model_K.pt``; ``None`` for a folder (its latest checkpoint)."""
+    m = re.fullmatch(r"model_(\d+)\.pt", Path(path).name)
+    return int(m.group(1)) if m else None
+
+
+def walk(run: Path, root: Path, lin: Lineage) -> None:
     """Depth-first over the sources, appending each run after its own sources."""
     run = run.resolve()
-    if run in seen:
+    if run in lin.metas:
         return
     meta = json.loads((run / META).read_text())
-    seen[run] = meta
-    edges[run] = []
+    lin.metas[run] = meta
+    lin.edges[run] = []
     for rel, src in sources(meta):
         parent = run_dir(src, root)
         used = f" (uses {Path(src).name})" if Path(src).suffix == ".pt" else ""
         if parent is None:
-            edges[run].append(f"{rel} {src}{used}: no run meta here (a shipped policy or a file)")
+            lin.edges[run].append(f"{rel} {src}{used}: no run meta here (a shipped policy or a file)")
+            lin.missing.append(src)
             continue
-        edges[run].append(f"{rel} {rel_path(parent, root)}{used}")
-        walk(parent, root, seen, order, edges)
-    order.append(run)
+        lin.edges[run].append(f"{rel} {rel_path(parent, root)}{used}")
+        walk(parent, root, lin)
+        lin.uses.setdefault(parent.resolve(), []).append(checkpoint_iteration(src))
+    lin.order.append(run)
+
+
+def lineage(first: Path, root: Path) -> Lineage:
+    lin = Lineage(order=[], metas={}, edges={}, uses={}, missing=[])
+    walk(first, root, lin)
+    return lin
 
 
 def rel_path(p: Path, root: Path) -> str:
@@ -100,6 +151,15 @@ def rel_path(p: Path, root: Path) -> str:
         return str(p.resolve().relative_to(root.resolve()))
     except ValueError:
         return str(p)
+
+
+def card_iterations(name: str) -> int:
+    """The iterations of a shipped policy's checkpoint (its card's ``(K iterations, …``)."""
+    text = shipped_path(name).with_suffix(".md").read_text()
+    m = re.search(r"\*\*Environment steps\*\*: [\d,]+ \((\d+) iterations", text)
+    if m is None:
+        raise SystemExit(f"the card of {name!r} gives no iteration count; use --run runs/NAME/model_K.pt")
+    return int(m.group(1))
 
 
 def main(a: Args) -> None:
@@ -115,11 +175,16 @@ def main(a: Args) -> None:
                          if all(f"--out {start} " in c + " " for c in json.loads(m.read_text()).get("command_lines", [""])))
         hint = f"; runs whose commands wrote to {start}: {', '.join(rel_path(r, a.root) for r in renamed)}" if renamed else ""
         raise SystemExit(f"{start}: no {META} there (runs/ holds the committed metas of the shipped runs){hint}")
-    seen: dict[Path, dict] = {}
-    order: list[Path] = []
-    edges: dict[Path, list[str]] = {}
-    walk(first, a.root, seen, order, edges)
+    lin = lineage(first, a.root)
+    if a.script:
+        last = card_iterations(a.policy) if a.policy else checkpoint_iteration(str(start))
+        if a.run is not None and last is not None:
+            last += 1  # model_K.pt is written at the end of K + 1 iterations
+        target = a.policy or str(start)
+        print(replay_script(lin, a.root, a.prefix, last, f"python scripts/lineage.py {'--policy' if a.policy else '--run'} {target} --script"))
+        return
     steps = hours = 0.0
+    order, seen, edges = lin.order, lin.metas, lin.edges
     for i, run in enumerate(order, 1):
         m = seen[run]
         devices = sorted({d for d in m.get("command_devices", []) if d}) or [m.get("device", "?")]
@@ -129,11 +194,178 @@ def main(a: Args) -> None:
         for e in edges[run]:
             print(f"   from {e}")
         for cmd in m.get("command_lines", []):
-            print("   $ " + re.sub(r"^\S*/(selfright|cli\.py) ", r"selfright ", cmd))
+            print("   $ " + as_selfright(cmd))
         steps += m.get("env_steps", 0)
         hours += m.get("wall_clock_s", 0) / 3600
     print(f"{len(order)} runs, {steps:,.0f} env steps, {hours:.2f} h of training in all "
           "(runs that went on past the checkpoint used count in full)")
+
+
+def as_selfright(cmd: str) -> str:
+    """A recorded command line with its executable's path (``…/.venv/bin/selfright``,
+    ``…/src/selfright/cli.py``) written as ``selfright``."""
+    return re.sub(r"^\S*/(selfright|cli\.py) ", r"selfright ", cmd)
+
+
+def segments(meta: dict[str, Any], ends: set[int]) -> list[tuple[str, int]]:
+    """(command line, stop iteration) for each step that replays a run: each recorded
+    invocation stopped where the next one began, and again at every iteration in ``ends``
+    (so ``model_{end-1}.pt`` is written), up to the largest of them."""
+    cmds = meta.get("command_lines") or [meta["command_line"]]
+    starts = meta.get("command_start_iterations") or [0]
+    if len(starts) != len(cmds):
+        raise SystemExit(f"{cmds[0].split('--out ')[-1].split()[0]}: its meta does not record where each of its "
+                         f"{len(cmds)} invocations began (written before 2026-11-23), so it cannot be replayed "
+                         f"(scripts/train_policies.sh is the recipe of the policies shipped up to the fourteenth session)")
+    final = max(ends)
+    stops = sorted({s for s in starts[1:] if 0 < s < final} | ends)
+    out = []
+    for stop in stops:
+        i = max(j for j, s in enumerate(starts) if s < stop)  # the invocation that ran up to `stop`
+        out.append((cmds[i], stop))
+    return out
+
+
+def flat_dict(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}}`` → ``{"a.b": 1}``."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(flat_dict(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
+    return out
+
+
+def resolved_configs(cmd: str) -> dict[str, dict[str, Any]]:
+    """The train and benchmark configurations today's ``selfright train`` resolves ``cmd`` to,
+    keyed as a run meta records them (``train_config``, ``benchmark_config``), flattened."""
+    from selfright.config import ActionConfig, BenchmarkConfig, RobotConfig, to_dict
+    from selfright.train.commands import TrainArgs
+
+    a = tyro.cli(TrainArgs, args=shlex.split(as_selfright(cmd))[2:])
+    bench = BenchmarkConfig(action=ActionConfig(reference=a.action_reference),
+                            robot=RobotConfig(motor=a.motor, motor_speed_rad_s=a.motor_speed_rad_s))
+    return {"train_config": flat_dict(to_dict(a.train)), "benchmark_config": flat_dict(to_dict(bench))}
+
+
+def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> list[str]:
+    """Where today's defaults make a run's last recorded command resolve to another
+    configuration than the one its meta records: ``key: recorded → now`` for changed values
+    (a value the run took from a source run, such as a copied student's history, is not a
+    change), and the settings added since, by name for the benchmark's (physics) and counted
+    for training's."""
+    try:
+        now = resolved_configs((meta.get("command_lines") or [meta["command_line"]])[-1])
+    except SystemExit:  # tyro said why on stderr
+        return ["its last command no longer parses (a flag renamed or removed since)"]
+    lines, added_train = [], 0
+    for group, values in now.items():
+        rec = flat_dict(meta.get(group) or {})
+        inherited = [flat_dict(m.get(group) or {}) for m in source_metas]
+        added = [k for k in values if k not in rec]
+        changed = [k for k in values if k in rec and json.dumps(values[k]) != json.dumps(rec[k])
+                   and not any(k in src and json.dumps(src[k]) == json.dumps(rec[k]) for src in inherited)]
+        lines += [f"{group}.{k}: recorded {json.dumps(rec[k])}, now {json.dumps(values[k])}" for k in changed]
+        if group == "benchmark_config":
+            lines += [f"{group}.{k}: not recorded (before it existed), now {json.dumps(values[k])}" for k in added]
+        else:
+            added_train = len(added)
+    if added_train:
+        lines.append(f"train_config: {added_train} setting{'s' if added_train > 1 else ''} added since, at their defaults")
+    return lines
+
+
+def set_flag(tokens: list[str], flag: str, values: list[str]) -> list[str]:
+    """``tokens`` with ``flag``'s values replaced (or the flag appended)."""
+    if flag not in tokens:
+        return [*tokens, flag, *values]
+    i = tokens.index(flag)
+    j = i + 1
+    while j < len(tokens) and not tokens[j].startswith("--"):
+        j += 1
+    return [*tokens[: i + 1], *values, *tokens[j:]]
+
+
+def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, made_by: str) -> str:
+    """A bash script that retrains every run of ``lin`` under ``prefix`` (module docstring)."""
+    names = {}  # every path a run was known by → its new folder
+    for run in lin.order:
+        new = f"{prefix.rstrip('/')}/{run.name}"
+        names[rel_path(run, root)] = new
+        for cmd in lin.metas[run].get("command_lines") or []:
+            for out in re.findall(r"--out (\S+)", cmd):
+                names[out.rstrip("/")] = new
+
+    def moved(token: str) -> str:
+        head, sep, tail = token.partition("/model_")
+        return names.get(head.rstrip("/"), head) + sep + tail
+
+    lines = [
+        "#!/usr/bin/env bash",
+        f"# Retrains the {len(lin.order)} runs of this lineage, oldest first, under {prefix}/ (written by:",
+        f"#   {made_by}).",
+        "# Rerun to resume: a step whose checkpoint exists is skipped, a started one goes on from its latest",
+        "# checkpoint. EXTRA is appended to every command; the last value of a flag wins",
+        '# (e.g. EXTRA="--device cpu --physics-threads 2" for the invocations that ran on the GPU machine).',
+        "# A replay is a draw of the recipe, not its bits (docs/training.md).",
+    ]
+    lines += [f"# Not retrained here, read as recorded: {src}" for src in dict.fromkeys(lin.missing)]
+    lines += [
+        "set -euo pipefail",
+        'EXTRA=${EXTRA:-}',
+        "",
+        "# last_it DIR: the iteration of DIR's newest model_K.pt (-1: none)",
+        "last_it() {",
+        "  local k=-1 f n",
+        '  for f in "$1"/model_*.pt; do',
+        '    [ -e "$f" ] || continue',
+        '    n=${f##*/model_}; n=${n%.pt}',
+        '    [ "$n" -gt "$k" ] && k=$n',
+        "  done",
+        '  echo "$k"',
+        "}",
+        "",
+        "# step DIR STOP COMMAND...: run COMMAND unless DIR holds model_{STOP-1}.pt or a later one;",
+        "# if DIR holds an earlier checkpoint, go on from it (--resume, no --init-from)",
+        "step() {",
+        '  local dir=$1 stop=$2 last args=() skip=0 a',
+        "  shift 2",
+        '  last=$(last_it "$dir")',
+        '  if [ "$last" -ge $((stop - 1)) ]; then echo "== $dir: model_$last.pt is there, skipped" >&2; return; fi',
+        '  for a in "$@"; do',
+        '    if [ "$skip" = 1 ]; then skip=0; continue; fi',
+        '    if [ "$last" -ge 0 ]; then',
+        '      if [ "$a" = --init-from ]; then skip=1; continue; fi',
+        '      if [ "$a" = --resume ]; then continue; fi',
+        "    fi",
+        '    args+=("$a")',
+        "  done",
+        '  if [ "$last" -ge 0 ]; then args+=(--resume); fi',
+        '  echo "== $dir: to model_$((stop - 1)).pt" >&2',
+        '  mkdir -p "$dir"',
+        '  # shellcheck disable=SC2086',
+        '  "${args[@]}" $EXTRA',
+        "}",
+    ]
+    for n, run in enumerate(lin.order, 1):
+        meta = lin.metas[run]
+        is_last = n == len(lin.order)
+        ends = {k + 1 if k is not None else int(meta["iterations_done"]) for k in lin.uses.get(run, [])}
+        if is_last:
+            ends.add(last_end if last_end is not None else int(meta["iterations_done"]))
+        new = names[rel_path(run, root)]
+        lines += ["", f"# {n}. {rel_path(run, root)} ({meta.get('role')} / {meta.get('context')}), "
+                      f"to iteration{'s' if len(ends) > 1 else ''} {', '.join(str(e) for e in sorted(ends))}"]
+        source_metas = [lin.metas[p.resolve()] for _, src in sources(meta)
+                        if (p := run_dir(src, root)) is not None]
+        drift = config_drift(meta, source_metas)
+        if drift:
+            lines.append("# today's code resolves its last command otherwise than the run recorded:")
+            lines += [f"#   {d}" for d in drift]
+        for cmd, stop in segments(meta, ends):
+            tokens = [moved(t) for t in shlex.split(as_selfright(cmd))]
+            tokens = set_flag(tokens, "--iterations", [str(stop)])
+            tokens = set_flag(tokens, "--train.keep-checkpoints", ["0"])  # every checkpoint a child reads stays
+            lines.append(f"step {shlex.quote(new)} {stop} {shlex.join(tokens)}")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

@@ -513,3 +513,99 @@ def test_noise_sweep_tabulates_each_policy_at_each_scale_on_the_same_falls(tmp_p
     assert exact["config"]["eval"]["sensor_noise"] == 0.0
     run_script("noise_sweep.py", args, monkeypatch)  # a rerun reads the folders back
     assert capsys.readouterr().out.splitlines() == lines
+
+
+FAKE_TRAIN = r'''#!/usr/bin/env bash
+# A stand-in for `selfright train`: logs its arguments, checks that what it reads exists, and
+# writes the checkpoint a run with --iterations N ends with (model_<N-1>.pt).
+set -eu
+echo "$*" >> "$LOG"
+out= its= resume=0 prev=
+for a in "$@"; do
+  case $prev in
+    --out) out=$a ;;
+    --iterations) its=$a ;;
+    --init-from|--teacher) [ -e "$a" ] || { echo "missing $a" >&2; exit 1; } ;;
+  esac
+  [ "$a" = --resume ] && resume=1
+  prev=$a
+done
+if [ $resume = 1 ]; then ls "$out"/model_*.pt > /dev/null; fi
+mkdir -p "$out"
+touch "$out/model_$((its - 1)).pt"
+'''
+
+
+def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_and_resumes(tmp_path, monkeypatch, capsys):
+    """``lineage.py --script``: each invocation stops where the next began and where a child
+    reads a checkpoint, the runs land under the prefix with their sources' paths rewritten, a
+    rerun skips what is done, and a step with an earlier checkpoint goes on with --resume (its
+    --init-from dropped)."""
+    import json
+    import os
+    import subprocess
+
+    def meta(name: str, cmds: list[str], starts: list[int], done: int, **kw) -> None:
+        (tmp_path / "runs" / name).mkdir(parents=True)
+        m = {"role": "teacher", "context": "incline", "iterations_done": done, "env_steps": 10, "wall_clock_s": 1.0,
+             "command_lines": [f"/venv/bin/selfright train --out runs/{name} {c}" for c in cmds],
+             "command_start_iterations": starts, **kw}
+        (tmp_path / "runs" / name / "train_meta.json").write_text(json.dumps(m))
+
+    teacher = "--role teacher --context incline --iterations 100000"
+    meta("base", [teacher, teacher + " --resume --train.ppo.desired-kl 0.005"], [0, 4], 12)
+    meta("escape", [teacher + " --init-from runs/base/model_9.pt"], [0], 8, init_from="runs/base/model_9.pt")
+    student = "--role student --context incline --iterations 300 --teacher runs/base/model_5.pt"
+    meta("student", [student + " --train.distillation.fallback-teacher runs/escape/model_3.pt"], [0], 300,
+         role="student", teacher="runs/base/model_5.pt",
+         train_config={"distillation": {"fallback_teacher": "runs/escape/model_3.pt"}, "episode": {}})
+    meta("stance", ["--role student --context incline --iterations 10 --teacher runs/student/model_9.pt"], [0], 10,
+         role="student", teacher="runs/student/model_9.pt")
+    run_script("lineage.py", ["--run", "runs/stance", "--root", str(tmp_path), "--script"], monkeypatch)
+    script = tmp_path / "retrain.sh"
+    script.write_text(capsys.readouterr().out)
+    steps = [line.split()[1:3] for line in script.read_text().splitlines() if line.startswith("step ")]
+    assert steps == [["runs/retrain/base", "4"], ["runs/retrain/base", "6"], ["runs/retrain/base", "10"],
+                     ["runs/retrain/escape", "4"], ["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
+    assert "train_config: " in script.read_text()  # the metas record no configuration: all of today's is new
+
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "selfright").write_text(FAKE_TRAIN)
+    (bin_dir / "selfright").chmod(0o755)
+    log = tmp_path / "calls.log"
+    env = {**os.environ, "PATH": f"{bin_dir}:{os.environ['PATH']}", "LOG": str(log), "EXTRA": "--physics-threads 2"}
+
+    def replay() -> list[str]:
+        before = log.read_text().splitlines() if log.exists() else []
+        subprocess.run(["bash", str(script)], cwd=tmp_path, env=env, check=True, capture_output=True)
+        return log.read_text().splitlines()[len(before):]
+
+    calls = replay()
+    assert len(calls) == 6
+    assert "--out runs/retrain/base" in calls[0] and "--iterations 4 " in calls[0] and "--resume" not in calls[0]
+    assert "desired-kl 0.005" in calls[1] and calls[1].count("--resume") == 1 and "--iterations 6 " in calls[1]
+    assert "--iterations 10 " in calls[2]
+    assert "--init-from runs/retrain/base/model_9.pt" in calls[3]
+    assert "--teacher runs/retrain/base/model_5.pt" in calls[4] and "fallback-teacher runs/retrain/escape/model_3.pt" in calls[4]
+    assert all(c.endswith("--physics-threads 2") and "--train.keep-checkpoints 0" in c for c in calls)
+    assert all((tmp_path / "runs/retrain" / r / f"model_{k}.pt").exists()
+               for r, k in [("base", 5), ("base", 9), ("escape", 3), ("student", 9), ("stance", 9)])
+
+    assert replay() == []  # everything is there
+    (tmp_path / "runs/retrain/escape/model_3.pt").unlink()
+    (tmp_path / "runs/retrain/escape/model_1.pt").touch()  # a run killed after a timed checkpoint
+    calls = replay()
+    assert len(calls) == 1 and "--out runs/retrain/escape" in calls[0]
+    assert "--init-from" not in calls[0] and calls[0].count("--resume") == 1
+
+
+def test_lineage_script_of_the_shipped_incline_reads_its_own_checkpoints_and_says_what_changed_since(monkeypatch, capsys):
+    """The replay of ``incline`` ends at the shipped iteration, and its first run, trained
+    before the hard joint stops, is flagged as resolving to other physics today."""
+    run_script("lineage.py", ["--policy", "incline", "--script"], monkeypatch)
+    out = capsys.readouterr().out
+    steps = [line.split()[1:3] for line in out.splitlines() if line.startswith("step ")]
+    assert steps[-1] == ["runs/retrain/incline_env395_stance03", "400"]
+    assert "--teacher runs/retrain/incline_dc_teacher_e512/model_395.pt" in out
+    assert "robot.joint_stop_timeconst_s: not recorded" in out
