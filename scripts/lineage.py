@@ -365,6 +365,11 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
             tokens = set_flag(tokens, "--iterations", [str(stop)])
             tokens = set_flag(tokens, "--train.keep-checkpoints", ["0"])  # every checkpoint a child reads stays
             lines.append(f"step {shlex.quote(new)} {stop} {shlex.join(tokens)}")
+    last = lin.metas[lin.order[-1]]
+    final = f"{names[rel_path(lin.order[-1], root)]}/model_{(last_end or int(last['iterations_done'])) - 1}.pt"
+    lines += ["", "# Score it as the model cards do (other seeds: --seed S), and pair it with the shipped one",
+              "# on the same falls with selfright compare:",
+              f"echo \"done: selfright evaluate --policy {final} --grid {last.get('context')} --episodes 64 --seed 0\" >&2"]
     return "\n".join(lines)
 
 
