@@ -34,6 +34,7 @@ began (metas written before 2026-11-23) cannot be replayed and is refused.
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 import shlex
@@ -273,6 +274,17 @@ def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> li
     return lines
 
 
+def recorded_validation(run: Path, iteration: int) -> str | None:
+    """"S/N (P %)" of a run's checkpoint in its committed ``validation.csv``, if it was validated."""
+    path = run / "validation.csv"
+    if not path.exists():
+        return None
+    for row in csv.DictReader(path.open()):
+        if int(row["iteration"]) == iteration:
+            return f"{row['successes']}/{row['episodes']} ({100 * float(row['success_rate']):.1f} %)"
+    return None
+
+
 def set_flag(tokens: list[str], flag: str, values: list[str]) -> list[str]:
     """``tokens`` with ``flag``'s values replaced (or the flag appended)."""
     if flag not in tokens:
@@ -305,7 +317,11 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
         "# Rerun to resume: a step whose checkpoint exists is skipped, a started one goes on from its latest",
         "# checkpoint. EXTRA is appended to every command; the last value of a flag wins",
         '# (e.g. EXTRA="--device cpu --physics-threads 2" for the invocations that ran on the GPU machine).',
-        "# A replay is a draw of the recipe, not its bits (docs/training.md).",
+        "# A replay is a draw of the recipe, not its bits (docs/training.md). A run stopped by hand",
+        "# (--iterations 100000 in its record) was stopped where its validation was good, and PPO from",
+        "# scratch takes off after a varying number of iterations: where a replayed run's validation",
+        "# is far under the recorded one, train it on (--resume --iterations K) and point its child",
+        "# at the checkpoint that validates as well (its --init-from / --teacher below).",
     ]
     lines += [f"# Not retrained here, read as recorded: {src}" for src in dict.fromkeys(lin.missing)]
     lines += [
@@ -364,6 +380,9 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
             tokens = [moved(t) for t in shlex.split(as_selfright(cmd))]
             tokens = set_flag(tokens, "--iterations", [str(stop)])
             tokens = set_flag(tokens, "--train.keep-checkpoints", ["0"])  # every checkpoint a child reads stays
+            recorded = recorded_validation(run, stop - 1)
+            if recorded:
+                lines.append(f"# the run recorded model_{stop - 1}.pt at {recorded} on validation; compare {new}/validation.csv")
             lines.append(f"step {shlex.quote(new)} {stop} {shlex.join(tokens)}")
     last = lin.metas[lin.order[-1]]
     final = f"{names[rel_path(lin.order[-1], root)]}/model_{(last_end or int(last['iterations_done'])) - 1}.pt"
