@@ -243,7 +243,8 @@ def resolved_configs(cmd: str) -> dict[str, dict[str, Any]]:
 
     a = tyro.cli(TrainArgs, args=shlex.split(as_selfright(cmd))[2:])
     bench = BenchmarkConfig(action=ActionConfig(reference=a.action_reference),
-                            robot=RobotConfig(motor=a.motor, motor_speed_rad_s=a.motor_speed_rad_s))
+                            robot=RobotConfig(motor=a.motor, motor_speed_rad_s=a.motor_speed_rad_s,
+                                              joint_stop_timeconst_s=a.joint_stop_timeconst_s))
     return {"train_config": flat_dict(to_dict(a.train)), "benchmark_config": flat_dict(to_dict(bench))}
 
 

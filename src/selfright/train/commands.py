@@ -68,6 +68,10 @@ class TrainArgs:
     motor_speed_rad_s: float | None = None
     """With ``--motor dcmotor`` or ``envelope``: the speed (rad/s) at which the torque falls to 0; None = the
     robot's rated speed (21 rad/s on the A1). Faster values approach the ideal servos."""
+    joint_stop_timeconst_s: float = RobotConfig.joint_stop_timeconst_s
+    """Stiffness of the joints' hard stops (``RobotConfig.joint_stop_timeconst_s``, s): the
+    benchmark's 0.01 by default; 0.02 is MuJoCo's softer default, which the runs before
+    2026-12-04 trained with (a training choice only: ``selfright evaluate`` uses 0.01)."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
@@ -124,7 +128,8 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         train=args.train,
         bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
                                        robot=RobotConfig(motor=args.motor,
-                                                         motor_speed_rad_s=args.motor_speed_rad_s)),
+                                                         motor_speed_rad_s=args.motor_speed_rad_s,
+                                                         joint_stop_timeconst_s=args.joint_stop_timeconst_s)),
     )
     return run_training(spec)
 
