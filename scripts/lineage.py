@@ -238,14 +238,11 @@ def flat_dict(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 def resolved_configs(cmd: str) -> dict[str, dict[str, Any]]:
     """The train and benchmark configurations today's ``selfright train`` resolves ``cmd`` to,
     keyed as a run meta records them (``train_config``, ``benchmark_config``), flattened."""
-    from selfright.config import ActionConfig, BenchmarkConfig, RobotConfig, to_dict
-    from selfright.train.commands import TrainArgs
+    from selfright.config import to_dict
+    from selfright.train.commands import TrainArgs, bench_config
 
     a = tyro.cli(TrainArgs, args=shlex.split(as_selfright(cmd))[2:])
-    bench = BenchmarkConfig(action=ActionConfig(reference=a.action_reference),
-                            robot=RobotConfig(motor=a.motor, motor_speed_rad_s=a.motor_speed_rad_s,
-                                              joint_stop_timeconst_s=a.joint_stop_timeconst_s))
-    return {"train_config": flat_dict(to_dict(a.train)), "benchmark_config": flat_dict(to_dict(bench))}
+    return {"train_config": flat_dict(to_dict(a.train)), "benchmark_config": flat_dict(to_dict(bench_config(a)))}
 
 
 def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> list[str]:

@@ -609,3 +609,18 @@ def test_lineage_script_of_the_shipped_incline_reads_its_own_checkpoints_and_say
     assert steps[-1] == ["runs/retrain/incline_env395_stance03", "400"]
     assert "--teacher runs/retrain/incline_dc_teacher_e512/model_395.pt" in out
     assert "robot.joint_stop_timeconst_s: not recorded" in out
+
+
+def test_lineage_drift_check_resolves_a_command_as_selfright_train_does():
+    """The configuration ``lineage.py`` compares with a run's record is the one ``selfright
+    train`` builds from the same command (``train.commands.bench_config``), e.g. the stiffness
+    of the joint stops, which runs before 2026-12-04 trained softer."""
+    lineage = runpy.run_path(str(Path(__file__).parents[1] / "scripts" / "lineage.py"), run_name="lineage")
+    cmd = "/venv/bin/selfright train --out runs/x --motor dcmotor --joint-stop-timeconst-s 0.02 --train.ppo.desired-kl 0.005"
+    got = lineage["resolved_configs"](cmd)
+    assert got["benchmark_config"]["robot.joint_stop_timeconst_s"] == 0.02
+    assert got["benchmark_config"]["robot.motor"] == "dcmotor"
+    assert got["train_config"]["ppo.desired_kl"] == 0.005
+    meta = {"command_lines": [cmd], "benchmark_config": {"robot": {"motor": "dcmotor"}}, "train_config": {}}
+    drift = lineage["config_drift"](meta, [])
+    assert "benchmark_config.robot.joint_stop_timeconst_s: not recorded (before it existed), now 0.02" in drift

@@ -126,12 +126,17 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         torch_threads=args.torch_threads,
         device=args.device,
         train=args.train,
-        bench=bench or BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
-                                       robot=RobotConfig(motor=args.motor,
-                                                         motor_speed_rad_s=args.motor_speed_rad_s,
-                                                         joint_stop_timeconst_s=args.joint_stop_timeconst_s)),
+        bench=bench or bench_config(args),
     )
     return run_training(spec)
+
+
+def bench_config(args: TrainArgs) -> BenchmarkConfig:
+    """The benchmark configuration a ``selfright train`` run trains in: the defaults with its
+    action reference and motor model."""
+    return BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
+                           robot=RobotConfig(motor=args.motor, motor_speed_rad_s=args.motor_speed_rad_s,
+                                             joint_stop_timeconst_s=args.joint_stop_timeconst_s))
 
 
 def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[ActorMLP, Path]:
