@@ -26,7 +26,10 @@ folders under ``--prefix`` (``runs/retrain``) so the committed ones stay as they
 run already holds its last checkpoint is skipped; one with an earlier checkpoint goes on from it
 (``--resume``, without ``--init-from``). ``EXTRA`` is appended to every command (the last value of
 a flag wins): the GPU machine's invocations say ``--device cuda --physics-threads 8``, so on a
-laptop give ``EXTRA="--device cpu --physics-threads 2"``. A source with no run meta here (a
+laptop give ``EXTRA="--device cpu --physics-threads 2"``. A run trained before its meta
+recorded a setting that has changed since is replayed with the value it had
+(``BEFORE_RECORDED``: the joint stops' stiffness, 0.02 s before 2026-12-04), and a comment above
+each run names any other setting today's code resolves its command to differently. A source with no run meta here (a
 shipped policy's file, a run whose meta was never committed) is read from where the meta names
 it, and the script says so; a run of several invocations whose meta does not record where each
 began (metas written before 2026-11-23) cannot be replayed and is refused.
@@ -264,12 +267,27 @@ def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> li
                    and not any(k in src and json.dumps(src[k]) == json.dumps(rec[k]) for src in inherited)]
         lines += [f"{group}.{k}: recorded {json.dumps(rec[k])}, now {json.dumps(values[k])}" for k in changed]
         if group == "benchmark_config":
-            lines += [f"{group}.{k}: not recorded (before it existed), now {json.dumps(values[k])}" for k in added]
+            lines += [f"{group}.{k}: not recorded (before it existed), now {json.dumps(values[k])}"
+                      for k in added if k not in BEFORE_RECORDED]  # those are restored (restored_settings)
         else:
             added_train = len(added)
     if added_train:
         lines.append(f"train_config: {added_train} setting{'s' if added_train > 1 else ''} added since, at their defaults")
     return lines
+
+
+# Settings whose value changed before the run metas recorded them: the flag that sets the value
+# the older runs had, which the replay passes to a run whose meta lacks the setting.
+BEFORE_RECORDED = {
+    # The hard joint stops (2026-12-04); the runs before had MuJoCo's default time constant.
+    "robot.joint_stop_timeconst_s": ("--joint-stop-timeconst-s", "0.02"),
+}
+
+
+def restored_settings(meta: dict[str, Any]) -> list[tuple[str, str]]:
+    """(flag, value) of each ``BEFORE_RECORDED`` setting the run trained with but did not record."""
+    rec = flat_dict(meta.get("benchmark_config") or {})
+    return [flag for key, flag in BEFORE_RECORDED.items() if key not in rec]
 
 
 def recorded_validation(run: Path, iteration: int) -> str | None:
@@ -374,9 +392,14 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
         if drift:
             lines.append("# today's code resolves its last command otherwise than the run recorded:")
             lines += [f"#   {d}" for d in drift]
+        restored = restored_settings(meta)
+        if restored:
+            lines.append("# trained here as it was then: " + ", ".join(f"{f} {v}" for f, v in restored))
         for cmd, stop in segments(meta, ends):
             tokens = [moved(t) for t in shlex.split(as_selfright(cmd))]
             tokens = set_flag(tokens, "--iterations", [str(stop)])
+            for flag, value in restored:
+                tokens = set_flag(tokens, flag, [value])
             tokens = set_flag(tokens, "--train.keep-checkpoints", ["0"])  # every checkpoint a child reads stays
             recorded = recorded_validation(run, stop - 1)
             if recorded:

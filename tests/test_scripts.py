@@ -602,13 +602,15 @@ def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_
 
 def test_lineage_script_of_the_shipped_incline_reads_its_own_checkpoints_and_says_what_changed_since(monkeypatch, capsys):
     """The replay of ``incline`` ends at the shipped iteration, and its first run, trained
-    before the hard joint stops, is flagged as resolving to other physics today."""
+    before the hard joint stops, is replayed with the softer stops it had."""
     run_script("lineage.py", ["--policy", "incline", "--script"], monkeypatch)
     out = capsys.readouterr().out
     steps = [line.split()[1:3] for line in out.splitlines() if line.startswith("step ")]
     assert steps[-1] == ["runs/retrain/incline_env395_stance03", "400"]
     assert "--teacher runs/retrain/incline_dc_teacher_e512/model_395.pt" in out
-    assert "robot.joint_stop_timeconst_s: not recorded" in out
+    first = next(line for line in out.splitlines() if line.startswith("step runs/retrain/incline_scratch_narrow "))
+    assert first.endswith("--joint-stop-timeconst-s 0.02")  # trained before the hard stops, and replayed so
+    assert "robot.joint_stop_timeconst_s" not in out
 
 
 def test_lineage_drift_check_resolves_a_command_as_selfright_train_does():
@@ -621,6 +623,8 @@ def test_lineage_drift_check_resolves_a_command_as_selfright_train_does():
     assert got["benchmark_config"]["robot.joint_stop_timeconst_s"] == 0.02
     assert got["benchmark_config"]["robot.motor"] == "dcmotor"
     assert got["train_config"]["ppo.desired_kl"] == 0.005
-    meta = {"command_lines": [cmd], "benchmark_config": {"robot": {"motor": "dcmotor"}}, "train_config": {}}
-    drift = lineage["config_drift"](meta, [])
-    assert "benchmark_config.robot.joint_stop_timeconst_s: not recorded (before it existed), now 0.02" in drift
+    meta = {"command_lines": [cmd], "benchmark_config": {"robot": {"motor": "ideal"}}, "train_config": {}}
+    assert 'benchmark_config.robot.motor: recorded "ideal", now "dcmotor"' in lineage["config_drift"](meta, [])
+    assert lineage["restored_settings"](meta) == [("--joint-stop-timeconst-s", "0.02")]
+    meta["benchmark_config"]["robot"]["joint_stop_timeconst_s"] = 0.01
+    assert lineage["restored_settings"](meta) == []
