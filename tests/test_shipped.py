@@ -115,6 +115,15 @@ def test_a_card_names_a_motor_model_other_than_the_default():
     assert "--motor dcmotor" in fast and "30 rad/s" in fast
 
 
+def test_a_card_names_joint_stops_softer_than_the_benchmarks():
+    from selfright.train.ship import joint_stop_lines
+
+    assert joint_stop_lines({}) == []  # runs from before the record
+    assert joint_stop_lines({"benchmark_config": {"robot": {"joint_stop_timeconst_s": 0.01}}}) == []
+    line = joint_stop_lines({"benchmark_config": {"robot": {"joint_stop_timeconst_s": 0.02}}})[0]
+    assert "0.02 s" in line and "0.01 s" in line
+
+
 def test_a_card_measured_through_sensor_noise_says_so_and_how_to_reproduce_it():
     from selfright.train.ship import noise_lines, success_lines
 

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from selfright.config import RewardConfig
+from selfright.config import RewardConfig, RobotConfig
 from selfright.evaluate.results import recorded_sensor_noise
 from selfright.policies.registry import CHECKPOINT_DIR
 
@@ -217,6 +217,7 @@ def model_card(
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
         *motor_lines(meta),
+        *joint_stop_lines(meta),
         *noise_lines(meta),
         f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
@@ -253,6 +254,17 @@ def motor_lines(meta: dict[str, Any]) -> list[str]:
     ideal = ("; on the benchmark's ideal servos `selfright evaluate` holds its commands to the DC torque-speed "
              "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else "")
     return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained}{ideal})"]
+
+
+def joint_stop_lines(meta: dict[str, Any]) -> list[str]:
+    """A card line naming the joint stops' stiffness when the run trained with other stops
+    than the benchmark's (``selfright train --joint-stop-timeconst-s``)."""
+    robot = (meta.get("benchmark_config") or {}).get("robot") or {}
+    trained = robot.get("joint_stop_timeconst_s")
+    if trained is None or trained == RobotConfig.joint_stop_timeconst_s:
+        return []
+    return [f"- **Joint stops**: trained with a stop time constant of {trained:g} s (softer than the benchmark's "
+            f"{RobotConfig.joint_stop_timeconst_s:g} s, which `selfright evaluate` uses)"]
 
 
 SUCCESS_PREFIX = "- **Success in its context**"
