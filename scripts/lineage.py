@@ -119,7 +119,9 @@ class Lineage:
 
 def checkpoint_iteration(path: str) -> int | None:
     """K of ``…/model_K.pt``; ``None`` for a folder (its latest checkpoint)."""
-    m = re.fullmatch(r"model_(\d+)\.pt", Path(path).name)
+    from selfright.train.checkpoints import CHECKPOINT_RE  # (imports torch: only where needed)
+
+    m = CHECKPOINT_RE.fullmatch(Path(path).name)
     return int(m.group(1)) if m else None
 
 
@@ -258,9 +260,13 @@ def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> li
         now = resolved_configs((meta.get("command_lines") or [meta["command_line"]])[-1])
     except SystemExit:  # tyro said why on stderr
         return ["its last command no longer parses (a flag renamed or removed since)"]
+    from selfright.evaluate.results import with_added_defaults
+
     lines, added_train = [], 0
     for group, values in now.items():
-        rec = flat_dict(meta.get(group) or {})
+        recorded = meta.get(group) or {}
+        # Fields added later whose default is what the code did before them are not drift.
+        rec = flat_dict(with_added_defaults(recorded) if group == "benchmark_config" else recorded)
         inherited = [flat_dict(m.get(group) or {}) for m in source_metas]
         added = [k for k in values if k not in rec]
         changed = [k for k in values if k in rec and json.dumps(values[k]) != json.dumps(rec[k])
@@ -272,7 +278,8 @@ def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> li
         else:
             added_train = len(added)
     if added_train:
-        lines.append(f"train_config: {added_train} setting{'s' if added_train > 1 else ''} added since, at their defaults")
+        lines.append(f"train_config: {added_train} setting{'s' if added_train > 1 else ''} added since, "
+                     f"at {'their defaults' if added_train > 1 else 'its default'}")
     return lines
 
 

@@ -133,7 +133,7 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
 
 def bench_config(args: TrainArgs) -> BenchmarkConfig:
     """The benchmark configuration a ``selfright train`` run trains in: the defaults with its
-    action reference and motor model."""
+    action reference, motor model and joint stops."""
     return BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
                            robot=RobotConfig(motor=args.motor, motor_speed_rad_s=args.motor_speed_rad_s,
                                              joint_stop_timeconst_s=args.joint_stop_timeconst_s))
