@@ -29,7 +29,10 @@ a flag wins): the GPU machine's invocations say ``--device cuda --physics-thread
 laptop give ``EXTRA="--device cpu --physics-threads 2"``. A run trained before its meta
 recorded a setting that has changed since is replayed with the value it had
 (``BEFORE_RECORDED``: the joint stops' stiffness, 0.02 s before 2026-12-04), and a comment above
-each run names any other setting today's code resolves its command to differently. A source with no run meta here (a
+each run names any other setting today's code resolves its command to differently.
+``--from-step K`` retrains runs K on only: the checkpoints the later runs read from runs 1 to
+K − 1 are copied from the committed runs (a replay of the later steps from the same start,
+which separates the recipe's later steps from the draw of the first). A source with no run meta here (a
 shipped policy's file, a run whose meta was never committed) is read from where the meta names
 it, and the script says so; a run of several invocations whose meta does not record where each
 began (metas written before 2026-11-23) cannot be replayed and is refused.
@@ -64,6 +67,9 @@ class Args:
     """Print a resumable bash script that retrains the lineage instead of listing it."""
     prefix: str = "runs/retrain"
     """With ``--script``: the folder the retrained runs go in (each keeps its name)."""
+    from_step: int = 1
+    """With ``--script``: retrain from this run of the listing on; the runs before it are not
+    retrained, and the checkpoints their children read are copied from the committed runs."""
 
 
 def card_run(name: str) -> Path:
@@ -187,7 +193,12 @@ def main(a: Args) -> None:
         if a.run is not None and last is not None:
             last += 1  # model_K.pt is written at the end of K + 1 iterations
         target = a.policy or str(start)
-        print(replay_script(lin, a.root, a.prefix, last, f"python scripts/lineage.py {'--policy' if a.policy else '--run'} {target} --script"))
+        if not 1 <= a.from_step <= len(lin.order):
+            raise SystemExit(f"--from-step {a.from_step}: the lineage has runs 1 to {len(lin.order)}")
+        made_by = f"python scripts/lineage.py {'--policy' if a.policy else '--run'} {target} --script"
+        if a.from_step > 1:
+            made_by += f" --from-step {a.from_step}"
+        print(replay_script(lin, a.root, a.prefix, last, made_by, a.from_step))
         return
     steps = hours = 0.0
     order, seen, edges = lin.order, lin.metas, lin.edges
@@ -319,8 +330,11 @@ def set_flag(tokens: list[str], flag: str, values: list[str]) -> list[str]:
     return [*tokens[: i + 1], *values, *tokens[j:]]
 
 
-def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, made_by: str) -> str:
-    """A bash script that retrains every run of ``lin`` under ``prefix`` (module docstring)."""
+def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, made_by: str,
+                  from_step: int = 1) -> str:
+    """A bash script that retrains every run of ``lin`` under ``prefix`` (module docstring),
+    from its ``from_step``-th run on: the runs before it are copied in (``reuse``), each as
+    the checkpoints its children read."""
     names = {}  # every path a run was known by → its new folder
     for run in lin.order:
         new = f"{prefix.rstrip('/')}/{run.name}"
@@ -335,7 +349,9 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
 
     lines = [
         "#!/usr/bin/env bash",
-        f"# Retrains the {len(lin.order)} runs of this lineage, oldest first, under {prefix}/ (written by:",
+        (f"# Retrains the {len(lin.order)} runs of this lineage, oldest first, under {prefix}/ (written by:"
+         if from_step == 1 else f"# Retrains runs {from_step} to {len(lin.order)} of this lineage, oldest first, "
+                                f"under {prefix}/, from the committed checkpoints of the runs before (written by:"),
         f"#   {made_by}).",
         "# Rerun to resume: a step whose checkpoint exists is skipped, a started one goes on from its latest",
         "# checkpoint. EXTRA is appended to every command; the last value of a flag wins",
@@ -384,8 +400,27 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
         '  "${args[@]}" $EXTRA',
         "}",
     ]
+    if from_step > 1:
+        lines += [
+            "",
+            "# reuse FILE DIR: copy a committed run's checkpoint (and its meta) into DIR, unless it is there",
+            "reuse() {",
+            '  [ -e "$1" ] || { echo "$1 is not here: retrain from an earlier step (--from-step)" >&2; exit 1; }',
+            '  mkdir -p "$2"',
+            '  [ -e "$2/${1##*/}" ] || cp "$1" "$2/"',
+            '  [ -e "$2/train_meta.json" ] || cp "$(dirname "$1")/train_meta.json" "$2/"',
+            "}",
+        ]
     for n, run in enumerate(lin.order, 1):
         meta = lin.metas[run]
+        if n < from_step:
+            used = sorted({k for k in lin.uses.get(run, []) if k is not None})
+            if None in lin.uses.get(run, []):
+                used.append(int(meta["iterations_done"]) - 1)  # a child read the folder: its latest
+            lines += ["", f"# {n}. {rel_path(run, root)}: not retrained (--from-step {from_step}), its checkpoints copied in"]
+            lines += [f"reuse {shlex.quote(f'{rel_path(run, root)}/model_{k}.pt')} {shlex.quote(names[rel_path(run, root)])}"
+                      for k in sorted(set(used))]
+            continue
         is_last = n == len(lin.order)
         ends = {k + 1 if k is not None else int(meta["iterations_done"]) for k in lin.uses.get(run, [])}
         if is_last:

@@ -536,14 +536,10 @@ touch "$out/model_$((its - 1)).pt"
 '''
 
 
-def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_and_resumes(tmp_path, monkeypatch, capsys):
-    """``lineage.py --script``: each invocation stops where the next began and where a child
-    reads a checkpoint, the runs land under the prefix with their sources' paths rewritten, a
-    rerun skips what is done, and a step with an earlier checkpoint goes on with --resume (its
-    --init-from dropped)."""
+def fake_lineage(tmp_path, monkeypatch, capsys, *args: str):
+    """Four fake runs under ``tmp_path/runs`` (base → escape, base + escape → student →
+    stance) and the ``lineage.py --script`` of the last, written to ``retrain.sh``."""
     import json
-    import os
-    import subprocess
 
     def meta(name: str, cmds: list[str], starts: list[int], done: int, **kw) -> None:
         (tmp_path / "runs" / name).mkdir(parents=True)
@@ -561,20 +557,39 @@ def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_
          train_config={"distillation": {"fallback_teacher": "runs/escape/model_3.pt"}, "episode": {}})
     meta("stance", ["--role student --context incline --iterations 10 --teacher runs/student/model_9.pt"], [0], 10,
          role="student", teacher="runs/student/model_9.pt")
-    run_script("lineage.py", ["--run", "runs/stance", "--root", str(tmp_path), "--script"], monkeypatch)
+    run_script("lineage.py", ["--run", "runs/stance", "--root", str(tmp_path), "--script", *args], monkeypatch)
     script = tmp_path / "retrain.sh"
     script.write_text(capsys.readouterr().out)
-    steps = [line.split()[1:3] for line in script.read_text().splitlines() if line.startswith("step ")]
-    assert steps == [["runs/retrain/base", "4"], ["runs/retrain/base", "6"], ["runs/retrain/base", "10"],
-                     ["runs/retrain/escape", "4"], ["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
-    assert "train_config: " in script.read_text()  # the metas record no configuration: all of today's is new
+    return script
+
+
+def fake_selfright(tmp_path) -> dict[str, str]:
+    """The environment that puts ``FAKE_TRAIN`` first on the PATH as ``selfright``, logging to
+    ``tmp_path/calls.log``."""
+    import os
 
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     (bin_dir / "selfright").write_text(FAKE_TRAIN)
     (bin_dir / "selfright").chmod(0o755)
+    return {**os.environ, "PATH": f"{bin_dir}:{os.environ['PATH']}", "LOG": str(tmp_path / "calls.log")}
+
+
+def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_and_resumes(tmp_path, monkeypatch, capsys):
+    """``lineage.py --script``: each invocation stops where the next began and where a child
+    reads a checkpoint, the runs land under the prefix with their sources' paths rewritten, a
+    rerun skips what is done, and a step with an earlier checkpoint goes on with --resume (its
+    --init-from dropped)."""
+    import subprocess
+
+    script = fake_lineage(tmp_path, monkeypatch, capsys)
+    steps = [line.split()[1:3] for line in script.read_text().splitlines() if line.startswith("step ")]
+    assert steps == [["runs/retrain/base", "4"], ["runs/retrain/base", "6"], ["runs/retrain/base", "10"],
+                     ["runs/retrain/escape", "4"], ["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
+    assert "train_config: " in script.read_text()  # the metas record no configuration: all of today's is new
+
     log = tmp_path / "calls.log"
-    env = {**os.environ, "PATH": f"{bin_dir}:{os.environ['PATH']}", "LOG": str(log), "EXTRA": "--physics-threads 2"}
+    env = {**fake_selfright(tmp_path), "EXTRA": "--physics-threads 2"}
 
     def replay() -> list[str]:
         before = log.read_text().splitlines() if log.exists() else []
@@ -598,6 +613,33 @@ def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_
     calls = replay()
     assert len(calls) == 1 and "--out runs/retrain/escape" in calls[0]
     assert "--init-from" not in calls[0] and calls[0].count("--resume") == 1
+
+
+def test_lineage_script_from_a_later_step_copies_the_earlier_runs_checkpoints_in(tmp_path, monkeypatch, capsys):
+    """``--from-step 3``: the first two runs are not retrained; the checkpoints the later runs
+    read from them are copied from the committed runs (with their metas), and the script stops
+    with a clear message where one is missing."""
+    import subprocess
+
+    script = fake_lineage(tmp_path, monkeypatch, capsys, "--from-step", "3")
+    text = script.read_text()
+    steps = [line.split()[1:3] for line in text.splitlines() if line.startswith("step ")]
+    assert steps == [["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
+    assert [line.split()[1:] for line in text.splitlines() if line.startswith("reuse ")] == [
+        ["runs/base/model_5.pt", "runs/retrain/base"], ["runs/base/model_9.pt", "runs/retrain/base"],
+        ["runs/escape/model_3.pt", "runs/retrain/escape"]]
+    env = fake_selfright(tmp_path)
+    failed = subprocess.run(["bash", str(script)], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert failed.returncode != 0 and "runs/base/model_5.pt is not here" in failed.stderr
+    for ckpt in ["base/model_5.pt", "base/model_9.pt", "escape/model_3.pt"]:
+        (tmp_path / "runs" / ckpt).write_text(ckpt)
+    subprocess.run(["bash", str(script)], cwd=tmp_path, env=env, check=True, capture_output=True)
+    calls = (tmp_path / "calls.log").read_text().splitlines()
+    assert len(calls) == 2 and "--teacher runs/retrain/base/model_5.pt" in calls[0]
+    assert (tmp_path / "runs/retrain/escape/model_3.pt").read_text() == "escape/model_3.pt"
+    assert (tmp_path / "runs/retrain/base/train_meta.json").exists()
+    with pytest.raises(SystemExit, match="runs 1 to 4"):
+        fake_lineage(tmp_path / "again", monkeypatch, capsys, "--from-step", "5")
 
 
 def test_lineage_script_of_the_shipped_incline_reads_its_own_checkpoints_and_says_what_changed_since(monkeypatch, capsys):
