@@ -418,8 +418,11 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
             if None in lin.uses.get(run, []):
                 used.append(int(meta["iterations_done"]) - 1)  # a child read the folder: its latest
             lines += ["", f"# {n}. {rel_path(run, root)}: not retrained (--from-step {from_step}), its checkpoints copied in"]
-            lines += [f"reuse {shlex.quote(f'{rel_path(run, root)}/model_{k}.pt')} {shlex.quote(names[rel_path(run, root)])}"
-                      for k in sorted(set(used))]
+            for k in sorted(set(used)):
+                ckpt = f"{rel_path(run, root)}/model_{k}.pt"
+                if not (root / ckpt).exists():
+                    lines.append(f"# {ckpt} is not here (not committed?): the reuse below stops; use a smaller --from-step")
+                lines.append(f"reuse {shlex.quote(ckpt)} {shlex.quote(names[rel_path(run, root)])}")
             continue
         is_last = n == len(lin.order)
         ends = {k + 1 if k is not None else int(meta["iterations_done"]) for k in lin.uses.get(run, [])}

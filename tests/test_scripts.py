@@ -625,6 +625,7 @@ def test_lineage_script_from_a_later_step_copies_the_earlier_runs_checkpoints_in
     text = script.read_text()
     steps = [line.split()[1:3] for line in text.splitlines() if line.startswith("step ")]
     assert steps == [["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
+    assert "# runs/escape/model_3.pt is not here" in text  # said when the script is written, too
     assert [line.split()[1:] for line in text.splitlines() if line.startswith("reuse ")] == [
         ["runs/base/model_5.pt", "runs/retrain/base"], ["runs/base/model_9.pt", "runs/retrain/base"],
         ["runs/escape/model_3.pt", "runs/retrain/escape"]]
