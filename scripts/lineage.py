@@ -413,23 +413,21 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
         ]
     for n, run in enumerate(lin.order, 1):
         meta = lin.metas[run]
+        old = rel_path(run, root)
+        new = names[old]
+        # The iteration each child reads stops the run after it (a folder: its last iteration).
+        ends = {k + 1 if k is not None else int(meta["iterations_done"]) for k in lin.uses.get(run, [])}
         if n < from_step:
-            used = sorted({k for k in lin.uses.get(run, []) if k is not None})
-            if None in lin.uses.get(run, []):
-                used.append(int(meta["iterations_done"]) - 1)  # a child read the folder: its latest
-            lines += ["", f"# {n}. {rel_path(run, root)}: not retrained (--from-step {from_step}), its checkpoints copied in"]
-            for k in sorted(set(used)):
-                ckpt = f"{rel_path(run, root)}/model_{k}.pt"
+            lines += ["", f"# {n}. {old}: not retrained (--from-step {from_step}), its checkpoints copied in"]
+            for end in sorted(ends):
+                ckpt = f"{old}/model_{end - 1}.pt"
                 if not (root / ckpt).exists():
                     lines.append(f"# {ckpt} is not here (not committed?): the reuse below stops; use a smaller --from-step")
-                lines.append(f"reuse {shlex.quote(ckpt)} {shlex.quote(names[rel_path(run, root)])}")
+                lines.append(f"reuse {shlex.quote(ckpt)} {shlex.quote(new)}")
             continue
-        is_last = n == len(lin.order)
-        ends = {k + 1 if k is not None else int(meta["iterations_done"]) for k in lin.uses.get(run, [])}
-        if is_last:
+        if n == len(lin.order):
             ends.add(last_end if last_end is not None else int(meta["iterations_done"]))
-        new = names[rel_path(run, root)]
-        lines += ["", f"# {n}. {rel_path(run, root)} ({meta.get('role')} / {meta.get('context')}), "
+        lines += ["", f"# {n}. {old} ({meta.get('role')} / {meta.get('context')}), "
                       f"to iteration{'s' if len(ends) > 1 else ''} {', '.join(str(e) for e in sorted(ends))}"]
         source_metas = [lin.metas[p.resolve()] for _, src in sources(meta)
                         if (p := run_dir(src, root)) is not None]
