@@ -285,7 +285,8 @@ def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> li
         lines += [f"{group}.{k}: recorded {json.dumps(rec[k])}, now {json.dumps(values[k])}" for k in changed]
         if group == "benchmark_config":
             lines += [f"{group}.{k}: not recorded (before it existed), now {json.dumps(values[k])}"
-                      for k in added if k not in BEFORE_RECORDED]  # those are restored (restored_settings)
+                      for k in added if k not in BEFORE_RECORDED  # those are restored (restored_settings)
+                      and not (k in ADDED_AS_BEFORE and values[k] == ADDED_AS_BEFORE[k])]
         else:
             added_train = len(added)
     if added_train:
@@ -293,6 +294,14 @@ def config_drift(meta: dict[str, Any], source_metas: list[dict[str, Any]]) -> li
                      f"at {'their defaults' if added_train > 1 else 'its default'}")
     return lines
 
+
+# Benchmark settings added after older runs were recorded, with the value the code ran with before
+# them: a run that lacks one and resolves to that value today has not drifted. (Kept to this report:
+# ``selfright compare`` and the resume check still tell such folders apart from newer ones.)
+ADDED_AS_BEFORE = {
+    "robot.motor": "ideal",  # 2026-12-04: the ideal PD servos were the only motor before
+    "robot.motor_speed_rad_s": None,  # 2026-12-04: None = the rated speed the DC motor had before
+}
 
 # Settings whose value changed before the run metas recorded them: the flag that sets the value
 # the older runs had, which the replay passes to a run whose meta lacks the setting.

@@ -671,3 +671,16 @@ def test_lineage_drift_check_resolves_a_command_as_selfright_train_does():
     assert lineage["restored_settings"](meta) == [("--joint-stop-timeconst-s", "0.02")]
     meta["benchmark_config"]["robot"]["joint_stop_timeconst_s"] = 0.01
     assert lineage["restored_settings"](meta) == []
+
+
+def test_lineage_drift_check_passes_over_settings_added_with_the_value_older_runs_had():
+    """A run recorded before ``robot.motor`` existed ran the ideal servos: resolving to them
+    today is not drift, resolving to the DC motors is."""
+    lineage = runpy.run_path(str(Path(__file__).parents[1] / "scripts" / "lineage.py"), run_name="lineage")
+    meta = {"command_lines": ["selfright train --out runs/x"], "benchmark_config": {"robot": {}}, "train_config": {}}
+    drift = lineage["config_drift"](meta, [])
+    assert not any("robot.motor" in line for line in drift), drift
+    meta["command_lines"] = ["selfright train --out runs/x --motor dcmotor"]
+    drift = lineage["config_drift"](meta, [])
+    assert 'benchmark_config.robot.motor: not recorded (before it existed), now "dcmotor"' in drift
+    assert not any("motor_speed_rad_s" in line for line in drift), drift
