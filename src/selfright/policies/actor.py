@@ -418,7 +418,8 @@ def export_onnx(actor: ActorMLP, path: str | Path) -> None:
     A recurrent actor (``meta.gru_dim`` H > 0) has a second input ``hidden`` (batch, H), zeros
     at an episode's start, and a second output ``hidden_out`` to feed back at the next step.
 
-    The metadata (``ActorMeta``) is stored in the model's ``metadata_props`` (values as JSON).
+    The metadata (``ActorMeta``) is stored in the model's ``metadata_props`` (values as JSON),
+    and for a student its ``selfright.deploy.DeploymentSpec`` under ``deployment``.
     """
     import onnx
 
@@ -451,7 +452,12 @@ def export_onnx(actor: ActorMLP, path: str | Path) -> None:
         for lg, level in zip(quiet, levels):
             lg.setLevel(level)
     proto = program.model_proto
-    for key, value in actor.meta.to_dict().items():
+    props = dict(actor.meta.to_dict())
+    if actor.meta.obs_group == "student":  # what a robot feeds it and does with its output
+        from selfright.deploy import DEPLOY_KEY, deployment_spec
+
+        props[DEPLOY_KEY] = deployment_spec(actor.meta).to_json()
+    for key, value in props.items():
         prop = proto.metadata_props.add()
         prop.key, prop.value = key, json.dumps(value)
     Path(path).parent.mkdir(parents=True, exist_ok=True)

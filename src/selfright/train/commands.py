@@ -81,9 +81,11 @@ class ExportArgs:
     """Export a checkpoint's actor (the student if distilled) for deployment and evaluation."""
 
     checkpoint: Path
-    """Training checkpoint model_<it>.pt, or a run folder (its latest checkpoint)."""
+    """Training checkpoint model_<it>.pt, a run folder (its latest checkpoint), a shipped policy's
+    name (``flat``, ``incline``, ...) or a ``selfright export`` policy file."""
     onnx: Path | None = None
-    """ONNX output (obs -> mean action); default: <checkpoint>_policy.onnx next to it."""
+    """ONNX output (obs -> mean action); default: <checkpoint>_policy.onnx next to it (a shipped
+    policy: NAME.onnx here)."""
     policy: Path | None = None
     """Policy file output (.pt, weights_only-loadable); default: the ONNX path with suffix .pt."""
 
@@ -140,16 +142,17 @@ def bench_config(args: TrainArgs) -> BenchmarkConfig:
 
 
 def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[ActorMLP, Path]:
-    """The deployable actor of a training checkpoint (or a run folder's latest one) and that
-    checkpoint's path; ``source`` (default: the path) is recorded in the actor's metadata.
+    """The deployable actor of a training checkpoint (or a run folder's latest one, or a
+    ``selfright export`` policy file) and that checkpoint's path; ``source`` (default: the path)
+    is recorded in the metadata of an actor read from a checkpoint.
     Reads tensors and plain containers only. User errors raise ``ValueError``."""
     import torch
 
-    from selfright.policies.actor import actor_from_checkpoint
+    from selfright.policies.actor import FILE_FORMAT, actor_from_checkpoint, actor_from_payload
     from selfright.train.checkpoints import latest_checkpoint, policy_hint
 
     if not checkpoint.exists():
-        raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt or a run folder")
+        raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt, a run folder or a policy file")
     ckpt = latest_checkpoint(checkpoint)
     try:
         data = torch.load(ckpt, map_location="cpu", weights_only=True)
@@ -157,6 +160,8 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
         raise ValueError(f"checkpoint {ckpt} cannot be read ({str(e).splitlines()[0][:200]})") from e
     if not isinstance(data, dict):
         raise ValueError(f"{ckpt} is not a training checkpoint")
+    if data.get("format") == FILE_FORMAT:  # a `selfright export` policy file (a shipped policy's too)
+        return actor_from_payload(data), ckpt
     hint = policy_hint(ckpt, data.get("infos"))
     hint["source"] = str(ckpt) if source is None else source
     return actor_from_checkpoint(data, hint), ckpt
@@ -165,9 +170,12 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
 def export(args: ExportArgs) -> tuple[Path, Path]:
     """Run ``selfright export``; returns (onnx path, policy file path). User errors raise ``ValueError``."""
     from selfright.policies.actor import export_onnx, save_actor_file
+    from selfright.policies.registry import shipped_path
 
-    actor, ckpt = load_checkpoint_actor(args.checkpoint)
-    onnx_path = args.onnx or ckpt.with_name(f"{ckpt.stem}_policy.onnx")
+    shipped = shipped_path(str(args.checkpoint))
+    by_name = not args.checkpoint.exists() and shipped.exists()  # a shipped policy
+    actor, ckpt = load_checkpoint_actor(shipped if by_name else args.checkpoint)
+    onnx_path = args.onnx or (Path(f"{args.checkpoint}.onnx") if by_name else ckpt.with_name(f"{ckpt.stem}_policy.onnx"))
     policy_path = args.policy or onnx_path.with_suffix(".pt")
     if policy_path.resolve() == ckpt.resolve():
         policy_path = ckpt.with_name(f"{ckpt.stem}_policy.pt")
@@ -178,6 +186,8 @@ def export(args: ExportArgs) -> tuple[Path, Path]:
     frames += " + velocity estimator" if actor.meta.estimator_dims else ""
     print(f"exported {actor.meta.obs_group}{frames} actor ({actor.meta.role}, {actor.meta.context or 'context ?'}) "
           f"of {ckpt}: {onnx_path}, {policy_path}")
+    if actor.meta.obs_group == "student":
+        print(f"deployment contract (sensors, action mapping, PD gains, rate): python -m selfright.deploy {onnx_path}")
     return onnx_path, policy_path
 
 
