@@ -19,12 +19,21 @@ if TYPE_CHECKING:
 Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
 
 
+def policy_stem(policy: str) -> str:
+    """A policy's name for a default results folder: a file's stem, ``FILE-NAME`` for a Python
+    policy ``FILE.py:NAME`` or ``package.module:NAME``."""
+    where, sep, attr = policy.rpartition(":")
+    if sep and where:
+        return f"{Path(where).stem if where.endswith('.py') else where.rpartition('.')[2]}-{attr}"
+    return Path(policy).stem
+
+
 @dataclass(frozen=True)
 class _Episodes:
     """Options shared by ``evaluate`` and ``replay``: which policy, which episodes, under what."""
 
     policy: str = "open-loop"
-    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file | a training run folder (its latest checkpoint)."""
+    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file | a training run folder (its latest checkpoint) | your Python policy as FILE.py:NAME or package.module:NAME (README, *Your own policy*)."""
     grid: Grid = "quick"
     """tiny = 2×2 cells (tests), quick = every other level, paper = full 11×20 grid, or a training context."""
     seed: int = 0
@@ -166,7 +175,7 @@ def run_evaluate(a: Evaluate, world_for: Callable[[Cell], World] | None = None, 
     cfg = a.bench_config(a.batch_size)
     if a.batch_size < 1:
         raise ValueError("--batch-size must be >= 1")
-    out = a.out or Path("results") / f"{Path(a.policy).stem}_{a.grid}"
+    out = a.out or Path("results") / f"{policy_stem(a.policy)}_{a.grid}"
     policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
@@ -188,7 +197,7 @@ def run_replay(a: Replay) -> None:
     cfg = a.bench_config()
     cell = select_cell(a.grid, cfg, a.slope_level, a.roughness_level)
     out = a.out or Path("results") / (
-        f"replay_{Path(a.policy).stem}_{a.grid}_{cell.slope_level}-{cell.roughness_level}_{a.episode}_s{a.seed}"
+        f"replay_{policy_stem(a.policy)}_{a.grid}_{cell.slope_level}-{cell.roughness_level}_{a.episode}_s{a.seed}"
     )
     policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     r = replay_episode(policy, cfg, cell, a.episode, a.seed)

@@ -67,6 +67,13 @@ def sensor_noise_std(num_joints: int) -> torch.Tensor:
     )
 
 
+GRAVITY_COLUMNS = slice(0, 3)
+"""Columns of the projected gravity (the gravity direction in the trunk frame, (0, 0, −1) upright)
+in the student observation (and the teacher's, which starts with it)."""
+ANG_VEL_COLUMNS = slice(3, 6)
+"""Columns of the IMU's angular velocity (rad/s, trunk frame)."""
+
+
 def joint_pos_columns(num_joints: int) -> slice:
     """Columns of the joint angles (relative to the robot's ``nominal_pose``) in the student
     observation (and in the teacher's, which starts with it)."""

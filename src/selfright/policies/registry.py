@@ -90,8 +90,9 @@ def make_policy(name: str, cfg: BenchmarkConfig, envelope: bool = True) -> Polic
 
 def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
     """Build the policy called ``name``: a baseline, a shipped policy, ``sr``, a file path
-    (``.pt`` actor file or rsl_rl checkpoint, TorchScript ``.pt``/``.jit``, or ``.onnx``), or a
-    training run folder (its latest checkpoint). ``ValueError`` otherwise."""
+    (``.pt`` actor file or rsl_rl checkpoint, TorchScript ``.pt``/``.jit``, or ``.onnx``), a
+    training run folder (its latest checkpoint), or a Python policy ``FILE.py:NAME`` /
+    ``package.module:NAME`` (``selfright.policies.user``). ``ValueError`` otherwise."""
     robot = get_robot(cfg.robot.name)
     if name == "zero":
         return ZeroPolicy(robot, cfg.action)
@@ -118,6 +119,10 @@ def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
             f"policy {name!r} is not shipped in this install yet; train one (README, Training) or choose one of: "
             f"{', '.join(available_policies())}"
         )
+    from selfright.policies.user import is_user_policy, load_user_policy
+
+    if is_user_policy(name):  # FILE.py:NAME or package.module:NAME
+        return load_user_policy(name, cfg)
     path = Path(name)
     if path.is_dir():  # a training run folder: its latest checkpoint
         from selfright.train.checkpoints import latest_checkpoint
@@ -127,4 +132,5 @@ def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
         if not path.exists():
             raise ValueError(f"policy file {path} does not exist")
         return learned.load_policy_file(path)
-    raise ValueError(f"unknown policy {name!r}; choose one of: {', '.join(available_policies())}, or a .pt/.onnx file")
+    raise ValueError(f"unknown policy {name!r}; choose one of: {', '.join(available_policies())}, a .pt/.onnx file, "
+                     "or a Python policy as FILE.py:NAME")
