@@ -90,3 +90,14 @@ def test_evaluate_runs_a_python_policy_and_refuses_to_resume_an_edited_one(tmp_p
     assert main(args) != 0  # another version of the policy: a fresh --out is asked for
     assert "differs in: policy_digest" in capsys.readouterr().err
     assert policy_stem(f"{path}:Still") == "pols-Still" and policy_stem("pkg.mod:make") == "mod-make"
+
+
+def test_the_readmes_python_example_runs(tmp_path, monkeypatch):
+    """The README's Python API example, as written (it writes under results/ of the working folder)."""
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    start = readme.index("```python\nfrom pathlib import Path\n\nimport torch")
+    code = readme[start + len("```python\n"): readme.index("```", start + 10)]
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    summary = json.loads((tmp_path / "results/stand_still_tiny/summary.json").read_text())
+    assert summary["overall"]["n"] == 16 and (tmp_path / "results/stand_still_tiny/success.png").exists()
