@@ -128,7 +128,6 @@ def deployment_spec(meta: Any, robot_cfg: Any = None, action_cfg: Any = None, si
     speed = None
     if motor in ("dcmotor", "envelope"):
         speed = envelope_speed(meta.motor_speed_rad_s or None, robot.rated_joint_speed, robot.name)
-    floats = lambda a: tuple(float(x) for x in a)  # noqa: E731
     return DeploymentSpec(
         robot=robot.name,
         joint_names=tuple(robot.joint_names),
@@ -136,11 +135,11 @@ def deployment_spec(meta: Any, robot_cfg: Any = None, action_cfg: Any = None, si
         kp=robot_cfg.kp,
         kd=robot_cfg.kd,
         torque_limit_nm=float(robot.torque_limit),
-        joint_low_rad=floats(robot.joint_low),
-        joint_high_rad=floats(robot.joint_high),
-        nominal_pose_rad=floats(robot.nominal_pose),
+        joint_low_rad=_floats(robot.joint_low),
+        joint_high_rad=_floats(robot.joint_high),
+        nominal_pose_rad=_floats(robot.nominal_pose),
         action_reference=reference,
-        action_reference_pose_rad=None if pose is None else floats(pose),
+        action_reference_pose_rad=None if pose is None else _floats(pose),
         action_scale_rad=meta.action_scale_rad or action_cfg.scale_rad,
         action_clip=action_cfg.clip,
         joint_vel_scale=JOINT_VEL_SCALE,
@@ -159,6 +158,10 @@ def spec_from_metadata(props: dict[str, str], where: str = "this ONNX file") -> 
         raise ValueError(f"{where} carries no deployment contract (a teacher, or exported before "
                          "2026-12-06); export the student again with `selfright export`")
     return DeploymentSpec.from_json(json.loads(props[DEPLOY_KEY]))
+
+
+def _floats(a: Any) -> tuple[float, ...]:
+    return tuple(float(x) for x in a)
 
 
 def read_spec(onnx_path: str | Path) -> DeploymentSpec:
