@@ -57,3 +57,24 @@ def test_cli_compare_prints_the_report_and_exits_2_on_user_errors(tmp_path: Path
     assert "McNemar p = 1.000" in capsys.readouterr().out
     assert main(["compare", str(a)]) == 2
     assert "at least two policies" in capsys.readouterr().err
+
+
+def test_difference_heatmap_gives_each_cell_the_second_policy_minus_the_first(tmp_path: Path, capsys):
+    from selfright.plots.heatmaps import success_difference
+
+    cells = [{"slope_level": 0, "roughness_level": r, "slope_pct": 0, "slope_deg": 0.0, "roughness_R": 0.0}
+             for r in (4, 8)]
+    folders = []
+    for name, ok in (("A", [1, 1] * 6), ("B", [0, 1] * 6)):  # level 4: even episodes; level 8: odd ones
+        f = fake_eval(tmp_path / name, name, 0, ok)
+        summary = json.loads((f / "summary.json").read_text())
+        (f / "summary.json").write_text(json.dumps({**summary, "cells": cells}))
+        folders.append(f)
+    grid, diff, marks, o = success_difference(folders)
+    assert o.names == ["A on rough", "B on rough"]
+    assert diff.tolist() == [[-100.0, 0.0]] and marks.tolist() == [["*", ""]]  # 6 of 6 only A: p = 2/64
+    png = tmp_path / "d.png"
+    assert main(["compare", *map(str, folders), "--plot", str(png)]) == 0 and png.stat().st_size > 0
+    assert f"difference heatmap: {png}" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="exactly two policies"):
+        success_difference([*folders, fake_eval(tmp_path / "C", "C", 0, [1] * 12)])

@@ -119,6 +119,9 @@ class Compare:
     """Results folders (grouped by the policy named in their summary.json)."""
     by_cell: bool = False
     """Also print each policy's rate in every cell."""
+    plot: Path | None = None
+    """With two policies: write a heatmap of the per-cell success difference (the second policy
+    in name order minus the first, with a per-cell McNemar mark) to this PNG."""
 
 
 @dataclass(frozen=True)
@@ -283,6 +286,10 @@ def main(argv: list[str] | None = None) -> int:
             from selfright.evaluate.compare import read_outcomes, report
 
             print(report(read_outcomes(args.folders), by_cell=args.by_cell))
+            if args.plot is not None:
+                from selfright.plots.heatmaps import difference_heatmap
+
+                print(f"difference heatmap: {difference_heatmap(args.folders, args.plot)}")
         elif isinstance(args, Replay):
             run_replay(args)
         elif isinstance(args, Scene):

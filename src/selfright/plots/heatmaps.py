@@ -90,10 +90,11 @@ def _text_color(rgba: tuple[float, ...]) -> str:
 
 def _heatmap(grid: CellGrid, values: np.ndarray, *, title: str, cbar_label: str, fmt: str,
              cmap_name: str, path: Path, vmin: float | None = None, vmax: float | None = None,
-             na_text: str = "N/A") -> Path:
+             na_text: str = "N/A", marks: np.ndarray | None = None) -> Path:
     """Draw an annotated heatmap of ``values`` ``(n_rows, n_cols)``; NaN cells are grey.
 
-    ``na_text`` annotates NaN cells that exist in the grid; absent cells stay blank.
+    ``na_text`` annotates NaN cells that exist in the grid; absent cells stay blank. ``marks``
+    (same shape, str) is appended to each finite cell's number.
     """
     n_rows, n_cols = values.shape
     finite = values[np.isfinite(values)]
@@ -110,7 +111,7 @@ def _heatmap(grid: CellGrid, values: np.ndarray, *, title: str, cbar_label: str,
         for j in range(n_cols):
             v = values[i, j]
             if np.isfinite(v):
-                ax.text(j, i, format(v, fmt), ha="center", va="center", fontsize=10,
+                ax.text(j, i, format(v, fmt) + ("" if marks is None else marks[i, j]), ha="center", va="center", fontsize=10,
                         color=_text_color(cmap(norm(v))))
             elif grid.cells[i][j] is not None:
                 ax.text(j, i, na_text, ha="center", va="center", fontsize=10, color="black")
@@ -204,6 +205,51 @@ def make_plots(out_dir: str | Path) -> list[Path]:
                    title=f"Distance to recover, all successful episodes\n{tag}"),
     ]
     return paths
+
+
+def success_difference(folders: list[Path] | tuple[Path, ...]) -> tuple[CellGrid, np.ndarray, np.ndarray, Any]:
+    """(grid, difference, marks, outcomes) of two policies' results folders: per cell, the second
+    policy's success (name order, as ``selfright compare`` groups them) minus the first's in points
+    on the falls both ran, and ``"*"`` where the exact McNemar test there gives p < 0.05."""
+    from selfright.evaluate.compare import mcnemar_p, read_outcomes
+
+    o = read_outcomes(folders)
+    if len(o.names) != 2:
+        raise ValueError(f"a difference heatmap needs exactly two policies, got {len(o.names)}: {', '.join(o.names)}")
+    cells: dict[tuple[int, int], dict[str, Any]] = {}
+    for f in folders:
+        for c in json.loads((Path(f) / "summary.json").read_text()).get("cells") or []:
+            cells.setdefault((int(c["slope_level"]), int(c["roughness_level"])), c)
+    if not cells:
+        raise ValueError("the folders' summary.json list no cells")
+    grid = build_grid(list(cells.values()))
+    keys = np.array([k[1:3] for k in o.keys])
+    a, b = o.ok
+    diff = np.full((len(grid.row_labels), len(grid.col_labels)), np.nan)
+    marks = np.full(diff.shape, "", dtype=object)
+    for i, row in enumerate(grid.cells):
+        for j, cell in enumerate(row):
+            here = None if cell is None else (
+                (keys[:, 0] == int(cell["slope_level"])) & (keys[:, 1] == int(cell["roughness_level"])))
+            if here is not None and here.any():
+                diff[i, j] = 100.0 * (b[here].mean() - a[here].mean())
+                marks[i, j] = "*" if mcnemar_p(int((a & ~b)[here].sum()), int((b & ~a)[here].sum())) < 0.05 else ""
+    return grid, diff, marks, o
+
+
+def difference_heatmap(folders: list[Path] | tuple[Path, ...], path: str | Path) -> Path:
+    """``success_difference`` drawn (red: the first policy better, blue: the second) to ``path``.
+    Reads only the folders' result files."""
+    from selfright.evaluate.compare import mcnemar_p
+
+    grid, diff, marks, o = success_difference(folders)
+    a, b = o.ok
+    span = max(10.0, float(np.nanmax(np.abs(diff))) if np.isfinite(diff).any() else 10.0)
+    p_all = mcnemar_p(int((a & ~b).sum()), int((b & ~a).sum()))
+    title = (f"Success, {o.names[1]} minus {o.names[0]} (points), {len(o.keys)} shared falls\n"
+             f"overall {100.0 * (b.mean() - a.mean()):+.1f} points, McNemar p = {p_all:.3g}; * p < 0.05 in the cell")
+    return _heatmap(grid, diff, title=title, cbar_label="success difference (points)", fmt="+.0f",
+                    cmap_name="RdBu", path=Path(path), vmin=-span, vmax=span, marks=marks)
 
 
 def _fmt_r(r: float) -> str:
