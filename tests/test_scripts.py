@@ -503,7 +503,7 @@ def test_noise_sweep_tabulates_each_policy_at_each_scale_on_the_same_falls(tmp_p
 
     out = tmp_path / "sweep"
     args = ["--policies", "zero", "flat", "--grid", "tiny", "--scales", "0", "2", "--episodes", "1", "--out", str(out)]
-    run_script("noise_sweep.py", args, monkeypatch)
+    run_script("factor_sweep.py", args, monkeypatch)
     lines = capsys.readouterr().out.splitlines()
     assert lines[1] == "| policy | noise 0 | noise 2 |" and len(lines) == 5
     assert lines[3].startswith("| `zero` |") and lines[4].startswith("| `flat` |")
@@ -511,8 +511,25 @@ def test_noise_sweep_tabulates_each_policy_at_each_scale_on_the_same_falls(tmp_p
     assert noisy["config"]["eval"]["sensor_noise"] == 2.0 and noisy["overall"]["n"] == 4
     exact = json.loads((out / "flat" / "noise0" / "s4" / "summary.json").read_text())
     assert exact["config"]["eval"]["sensor_noise"] == 0.0
-    run_script("noise_sweep.py", args, monkeypatch)  # a rerun reads the folders back
+    run_script("factor_sweep.py", args, monkeypatch)  # a rerun reads the folders back
     assert capsys.readouterr().out.splitlines() == lines
+
+
+def test_factor_sweep_sets_walls_friction_and_compliance(tmp_path, monkeypatch, capsys):
+    import json
+
+    for factor, values, recorded in (("wall_gap_ratio", ["0", "2"], [None, 2.0]), ("friction", ["0.5"], [0.5]),
+                                     ("ground_timeconst_s", ["0.05"], [0.05])):
+        out = tmp_path / factor
+        args = ["--policies", "zero", "--grid", "tiny", "--factor", factor, "--values", *values, "--episodes", "1",
+                "--seeds", "0", "--out", str(out)]
+        run_script("factor_sweep.py", args, monkeypatch)
+        header = capsys.readouterr().out.splitlines()[1]
+        label = {"wall_gap_ratio": "walls", "friction": "friction", "ground_timeconst_s": "ground"}[factor]
+        assert header == "| policy | " + " | ".join(f"{label} {v}" for v in values) + " |"
+        for v, want in zip(values, recorded):
+            summary = json.loads((out / "zero" / f"{label}{v}" / "s0" / "summary.json").read_text())
+            assert summary["config"]["eval"][factor] == want
 
 
 FAKE_TRAIN = r'''#!/usr/bin/env bash
