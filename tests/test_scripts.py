@@ -701,3 +701,11 @@ def test_lineage_drift_check_passes_over_settings_added_with_the_value_older_run
     drift = lineage["config_drift"](meta, [])
     assert 'benchmark_config.robot.motor: not recorded (before it existed), now "dcmotor"' in drift
     assert not any("motor_speed_rad_s" in line for line in drift), drift
+
+
+def test_soft_ground_sink_reads_the_stand_pose_under_the_bar_only_on_soft_ground(monkeypatch, capsys):
+    run_script("soft_ground_sink.py", ["--timeconsts", "0.02", "0.1", "--seconds", "1"], monkeypatch)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].endswith(", in the goal set") and lines[1].endswith("not in the goal set")
+    heights = [float(line.split("trunk ")[1].split(" m")[0]) for line in lines]
+    assert heights[0] > 0.32 > heights[1]
