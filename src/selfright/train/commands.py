@@ -152,7 +152,8 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
     from selfright.train.checkpoints import latest_checkpoint, policy_hint
 
     if not checkpoint.exists():
-        raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt, a run folder or a policy file")
+        raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt, a run folder, a policy file or a shipped "
+                         "policy's name (flat, rough, incline, ...; sr is three policies: export each)")
     ckpt = latest_checkpoint(checkpoint)
     try:
         data = torch.load(ckpt, map_location="cpu", weights_only=True)
