@@ -709,3 +709,28 @@ def test_soft_ground_sink_reads_the_stand_pose_under_the_bar_only_on_soft_ground
     assert lines[0].endswith(", in the goal set") and lines[1].endswith("not in the goal set")
     heights = [float(line.split("trunk ")[1].split(" m")[0]) for line in lines]
     assert heights[0] > 0.32 > heights[1]
+
+
+def test_multiplexer_rule_scores_rules_from_the_members_cells(tmp_path, monkeypatch, capsys):
+    import json
+
+    # two slope rows (0° and 16.7°) × roughness levels 0 and 1, 10 falls each
+    succ = {"flat": [10, 2, 1, 0], "rough": [9, 9, 3, 8], "incline": [5, 1, 7, 2]}
+    cells = [(0, 0, 0.0), (0, 1, 0.0), (3, 0, 16.7), (3, 1, 16.7)]
+    folders = []
+    for member, ok in succ.items():
+        f = tmp_path / member
+        f.mkdir()
+        summary = {"cells": [{"slope_level": s, "roughness_level": r, "slope_deg": d, "n": 10, "successes": k}
+                             for (s, r, d), k in zip(cells, ok)]}
+        (f / "summary.json").write_text(json.dumps(summary))
+        folders += [f"--{member}", str(f)]
+    run_script("multiplexer_rule.py", [*folders, "--thresholds-deg", "15", "20"], monkeypatch)
+    out = capsys.readouterr().out
+    assert "40 falls" in out
+    # the shipped rule: flat 10, rough 9, incline 7 and 2 = 28 of 40
+    assert "the shipped rule (T = 15°, incline at every roughness): 70.0 %" in out
+    assert "per-cell oracle: 85.0 %" in out  # 10 + 9 + 7 + 8
+    lines = out.splitlines()
+    best = lines[lines.index("best rules (incline if slope ≥ T and roughness level < R):") + 1]
+    assert best == "  T = 15°, R = 1: 85.0 %"  # incline on the smooth slope only
