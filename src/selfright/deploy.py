@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from selfright.sim.dc_envelope import enveloped_targets
+
 DEPLOY_KEY = "deployment"
 """Key of the ``DeploymentSpec`` (JSON) in an exported ONNX file's metadata."""
 
@@ -237,11 +239,7 @@ class OnnxController:
         ref = q if self._ref is None else self._ref
         target = np.clip(ref + s.action_scale_rad * action, self._low, self._high)
         if self.envelope:
-            tau = s.kp * (target - q) - s.kd * qd
-            stall, speed = s.torque_limit_nm, s.envelope_speed_rad_s
-            high = np.minimum(stall * (1.0 - qd / speed), stall)
-            low = np.maximum(-stall * (1.0 + qd / speed), -stall)
-            moved = q + (np.clip(tau, low, high) + s.kd * qd) / s.kp
+            moved = enveloped_targets(target, q, qd, s.kp, s.kd, s.torque_limit_nm, s.envelope_speed_rad_s)
             # back through the action clip and the joint range, as the benchmark's env does
             target = np.clip(ref + np.clip((moved - ref) / s.action_scale_rad, -s.action_clip, s.action_clip)
                              * s.action_scale_rad, self._low, self._high)

@@ -11,7 +11,15 @@ applies the same limit to every policy, so a policy can be trained with it in th
 
 from __future__ import annotations
 
-import torch
+from typing import TYPE_CHECKING, TypeVar
+
+if TYPE_CHECKING:
+    import numpy as np
+    import torch
+
+Array = TypeVar("Array", "np.ndarray", "torch.Tensor")
+"""The functions below work on numpy arrays and torch tensors alike (``selfright.deploy`` runs
+them without torch), with the same arithmetic either way."""
 
 __all__ = ["envelope_speed", "envelope_limits", "enveloped_targets"]
 
@@ -25,18 +33,18 @@ def envelope_speed(motor_speed: float | None, rated_speed: float | None, robot_n
     return float(speed)
 
 
-def envelope_limits(qd: torch.Tensor, stall_torque: float, speed: float) -> tuple[torch.Tensor, torch.Tensor]:
+def envelope_limits(qd: Array, stall_torque: float, speed: float) -> tuple[Array, Array]:
     """(low, high) torque bounds (N·m) of a voltage-saturated DC motor at joint speeds ``qd``
     (rad/s), stall torque ``stall_torque``, no-load speed ``speed`` (rad/s)."""
-    high = torch.clamp(stall_torque * (1.0 - qd / speed), max=stall_torque)
-    low = torch.clamp(-stall_torque * (1.0 + qd / speed), min=-stall_torque)
+    high = (stall_torque * (1.0 - qd / speed)).clip(max=stall_torque)
+    low = (-stall_torque * (1.0 + qd / speed)).clip(min=-stall_torque)
     return low, high
 
 
-def enveloped_targets(target: torch.Tensor, q: torch.Tensor, qd: torch.Tensor, kp: float, kd: float,
-                      stall_torque: float, speed: float) -> torch.Tensor:
+def enveloped_targets(target: Array, q: Array, qd: Array, kp: float, kd: float,
+                      stall_torque: float, speed: float) -> Array:
     """Joint targets whose PD torque at (``q``, ``qd``) is that of ``target`` clipped to the DC
     envelope (``envelope_limits``)."""
     tau = kp * (target - q) - kd * qd
     low, high = envelope_limits(qd, stall_torque, speed)
-    return q + (torch.minimum(torch.maximum(tau, low), high) + kd * qd) / kp
+    return q + (tau.clip(low, high) + kd * qd) / kp
