@@ -21,6 +21,8 @@ from pathlib import Path
 
 import tyro
 
+from selfright.terrain.grid import INCLINE_ROUGHNESS_BELOW, INCLINE_SWITCH_DEG, sr_context
+
 
 @dataclass(frozen=True)
 class Args:
@@ -49,11 +51,9 @@ def cell_rates(folders: dict[str, Path]) -> dict[tuple[int, int], dict[str, obje
     return {k: v for k, v in out.items() if all(m in v for m in folders)}
 
 
-def pick(slope_deg: float, roughness: int, threshold_deg: float, incline_below: int) -> str:
-    """The member the rule (module docstring) picks for a cell."""
-    if slope_deg >= threshold_deg and roughness < incline_below:
-        return "incline"
-    return "rough" if roughness >= 1 else "flat"
+def score(cells: dict[tuple[int, int], dict[str, object]], threshold_deg: float, incline_below: int) -> int:
+    """Falls got up from if π_SR handed each cell to the member ``sr_context`` picks with these thresholds."""
+    return sum(int(c[sr_context(float(c["slope_deg"]), k[1], threshold_deg, incline_below)]) for k, c in cells.items())
 
 
 def main(args: Args) -> None:
@@ -63,15 +63,15 @@ def main(args: Args) -> None:
     scored = []
     for t in args.thresholds_deg:
         for r in [*levels[1:], levels[-1] + 1]:
-            ok = sum(int(c[pick(float(c["slope_deg"]), k[1], t, r)]) for k, c in cells.items())
-            scored.append((ok, t, r))
+            scored.append((score(cells, t, r), t, r))
     oracle = sum(max(int(c[m]) for m in ("flat", "rough", "incline")) for c in cells.values())
-    current = next(ok for ok, t, r in scored if t == 15.0 and r == levels[-1] + 1) if 15.0 in args.thresholds_deg else None
     print(f"{len(cells)} cells, {total} falls")
     for member in ("flat", "rough", "incline"):
         print(f"  {member} everywhere: {100 * sum(int(c[member]) for c in cells.values()) / total:.1f} %")
-    if current is not None:
-        print(f"  the shipped rule (T = 15°, incline at every roughness): {100 * current / total:.1f} %")
+    earlier = score(cells, INCLINE_SWITCH_DEG, levels[-1] + 1)
+    print(f"  the rule until 2026-12-06 (T = {INCLINE_SWITCH_DEG:g}°, incline at every roughness): {100 * earlier / total:.1f} %")
+    shipped = score(cells, INCLINE_SWITCH_DEG, INCLINE_ROUGHNESS_BELOW)
+    print(f"  the shipped rule (T = {INCLINE_SWITCH_DEG:g}°, R = {INCLINE_ROUGHNESS_BELOW}): {100 * shipped / total:.1f} %")
     print(f"  per-cell oracle: {100 * oracle / total:.1f} %")
     print("best rules (incline if slope ≥ T and roughness level < R):")
     for ok, t, r in sorted(scored, key=lambda s: (-s[0], s[1], s[2]))[: args.show]:

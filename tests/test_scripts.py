@@ -729,7 +729,8 @@ def test_multiplexer_rule_scores_rules_from_the_members_cells(tmp_path, monkeypa
     out = capsys.readouterr().out
     assert "40 falls" in out
     # the shipped rule: flat 10, rough 9, incline 7 and 2 = 28 of 40
-    assert "the shipped rule (T = 15°, incline at every roughness): 70.0 %" in out
+    assert "the rule until 2026-12-06 (T = 15°, incline at every roughness): 70.0 %" in out
+    assert "the shipped rule (T = 15°, R = 7): 70.0 %" in out  # both rough levels here are under 7
     assert "per-cell oracle: 85.0 %" in out  # 10 + 9 + 7 + 8
     lines = out.splitlines()
     best = lines[lines.index("best rules (incline if slope ≥ T and roughness level < R):") + 1]

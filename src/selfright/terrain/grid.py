@@ -76,12 +76,16 @@ def _context_of(slope_level: int, roughness_level: int, cfg: TerrainConfig) -> s
     26.9 % against 24.6 % for π_INCLINE at every roughness, levels 4–9 within 0.2 points) and
     checked on seed 0 (README, *Results*); until 2026-12-06 π_INCLINE took every sloped cell.
     """
-    cell = make_cell(slope_level, roughness_level, cfg)
-    if cell.slope_deg >= INCLINE_SWITCH_DEG and roughness_level < INCLINE_ROUGHNESS_BELOW:
+    return sr_context(make_cell(slope_level, roughness_level, cfg).slope_deg, roughness_level)
+
+
+def sr_context(slope_deg: float, roughness_level: int, switch_deg: float = INCLINE_SWITCH_DEG,
+               roughness_below: int = INCLINE_ROUGHNESS_BELOW) -> str:
+    """The member π_SR's rule (``_context_of``) picks for a cell of this slope and roughness
+    level; other thresholds score other rules (``scripts/multiplexer_rule.py``)."""
+    if slope_deg >= switch_deg and roughness_level < roughness_below:
         return "incline"
-    if roughness_level >= 1:
-        return "rough"
-    return "flat"
+    return "rough" if roughness_level >= 1 else "flat"
 
 
 GRIDS = ("tiny", "quick", "paper", "flat", "rough", "incline")
