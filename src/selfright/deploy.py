@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from selfright.sim.dc_envelope import enveloped_targets
+from selfright.sim.dc_envelope import envelope_held_targets
 
 DEPLOY_KEY = "deployment"
 """Key of the ``DeploymentSpec`` (JSON) in an exported ONNX file's metadata."""
@@ -238,11 +238,9 @@ class OnnxController:
         q, qd = np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64)
         ref = q if self._ref is None else self._ref
         target = np.clip(ref + s.action_scale_rad * action, self._low, self._high)
-        if self.envelope:
-            moved = enveloped_targets(target, q, qd, s.kp, s.kd, s.torque_limit_nm, s.envelope_speed_rad_s)
-            # back through the action clip and the joint range, as the benchmark's env does
-            target = np.clip(ref + np.clip((moved - ref) / s.action_scale_rad, -s.action_clip, s.action_clip)
-                             * s.action_scale_rad, self._low, self._high)
+        if self.envelope:  # as the benchmark's env does it
+            target = envelope_held_targets(target, ref, q, qd, s.action_scale_rad, s.action_clip, self._low,
+                                           self._high, s.kp, s.kd, s.torque_limit_nm, s.envelope_speed_rad_s)
         return target
 
 

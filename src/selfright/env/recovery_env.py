@@ -22,7 +22,7 @@ from selfright.env.robot_state import RobotState, decode
 from selfright.env.world import World
 from selfright.robots import RobotSpec, get_robot
 from selfright.sim.batch import BatchStepper, sensor_layout, state_layout
-from selfright.sim.dc_envelope import envelope_speed, enveloped_targets
+from selfright.sim.dc_envelope import envelope_held_targets, envelope_speed
 from selfright.terrain.heightfield import sample_heights
 
 EDGE_MARGIN_M = 0.5
@@ -217,10 +217,9 @@ class RecoveryEnv:
             return target
         # As selfright.policies.torque_envelope does it: move the target into the DC envelope,
         # then back through the action clip and the joint range.
-        q, qd = (torch.from_numpy(state[:, c]) for c in (self.sl.qpos_joints, self.sl.qvel_joints))
-        moved = enveloped_targets(torch.from_numpy(target), q, qd, *self._envelope).numpy()
-        clip = self.cfg.action.clip
-        return np.clip(ref + scale * np.clip((moved - ref) / scale, -clip, clip), self._low, self._high)
+        q, qd = state[:, self.sl.qpos_joints], state[:, self.sl.qvel_joints]
+        return envelope_held_targets(target, ref, q, qd, scale, self.cfg.action.clip, self._low, self._high,
+                                     *self._envelope)
 
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
         """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""

@@ -21,7 +21,7 @@ Array = TypeVar("Array", "np.ndarray", "torch.Tensor")
 """The functions below work on numpy arrays and torch tensors alike (``selfright.deploy`` runs
 them without torch), with the same arithmetic either way."""
 
-__all__ = ["envelope_speed", "envelope_limits", "enveloped_targets"]
+__all__ = ["envelope_speed", "envelope_limits", "enveloped_targets", "envelope_held_targets"]
 
 
 def envelope_speed(motor_speed: float | None, rated_speed: float | None, robot_name: str) -> float:
@@ -48,3 +48,12 @@ def enveloped_targets(target: Array, q: Array, qd: Array, kp: float, kd: float,
     tau = kp * (target - q) - kd * qd
     low, high = envelope_limits(qd, stall_torque, speed)
     return q + (tau.clip(low, high) + kd * qd) / kp
+
+
+def envelope_held_targets(target: Array, ref: Array, q: Array, qd: Array, scale: float, clip: float,
+                          low: Array, high: Array, kp: float, kd: float, stall_torque: float, speed: float) -> Array:
+    """What the ``envelope`` env commands: ``target`` moved into the DC envelope
+    (``enveloped_targets``), then back through the action clip (±``clip`` actions of ``scale`` rad
+    around the reference pose ``ref``) and the joint range ``low``–``high``."""
+    moved = enveloped_targets(target, q, qd, kp, kd, stall_torque, speed)
+    return (ref + scale * ((moved - ref) / scale).clip(-clip, clip)).clip(low, high)
