@@ -169,6 +169,16 @@ class EpisodeConfig:
     that rolls away keep paying Table I's lying and drift penalties instead of ending at the
     edge (the edge of a finite patch of an unbounded slope is an artefact). Validation and
     ``selfright evaluate`` always use the benchmark's tile."""
+    wall_gap_ratios: tuple[float, ...] = ()
+    """Side-wall gaps (body lengths, the benchmark's ``--wall-gap-ratio``) to train between, a
+    further factor of the seed: every training tile is built once open and once per gap, and
+    each episode draws one of these worlds uniformly (with walls the robot is dropped midway
+    between them, as in the benchmark). Empty = open ground only. The teacher observation has
+    no wall feature; the walls are felt through the body's contacts."""
+    ground_timeconsts_s: tuple[float, ...] = ()
+    """Softer ground contacts (s, the benchmark's ``--ground-timeconst``) to train on besides the
+    benchmark's 0.02 s: every world above is built once more per time constant, drawn
+    uniformly with the rest. Empty = the benchmark's ground only."""
     rough_max_extent_m: float = 0.35
     """Largest peak-to-peak roughness extent of the ``rough`` context (m). 0.35 m covers
     ``--grid rough`` (levels 4, 8, 12: 0.105, 0.21, 0.32 m) with a margin, so the policy is
@@ -367,6 +377,10 @@ class ValidationConfig:
     """Run seed of the validation episodes (not 0, the seed model cards report)."""
     grid: str | None = None
     """Named grid to validate on; default: the training context's grid (flat, rough, incline)."""
+    wall_gap_ratio: float | None = None
+    """Validate between side walls this many body lengths apart; ``None`` = open ground."""
+    ground_timeconst_s: float | None = None
+    """Validate on ground of this contact time constant (s); ``None`` = the benchmark's."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -9,6 +9,9 @@ incline: a 20° smooth slope rising along +x. No yaw variants are needed: the fa
          ``EpisodeConfig.curriculum`` one tile per slope of ``incline_curriculum_deg``; with
          ``incline_slopes_deg`` one per listed slope, each episode drawing one.
 
+Each context's tiles can also be built between side walls and on softer ground (the seed's
+further factors; ``EpisodeConfig.wall_gap_ratios``, ``ground_timeconsts_s``).
+
 Tiles are listed from easy to hard (the curriculum's levels).
 """
 
@@ -70,12 +73,38 @@ def training_bench(cfg: BenchmarkConfig, episode: EpisodeConfig) -> BenchmarkCon
     return replace(cfg, terrain=replace(cfg.terrain, tile_size_m=episode.tile_size_m))
 
 
+def training_factor_contexts(cfg: BenchmarkConfig, episode: EpisodeConfig) -> list[ContextConfig]:
+    """The physical contexts each training tile is built in: open ground at the benchmark's
+    contact stiffness, then each side-wall gap of ``wall_gap_ratios``, all of them again at each
+    softer ground of ``ground_timeconsts_s`` (the seed's further factors)."""
+    gaps, tcs = episode.wall_gap_ratios, episode.ground_timeconsts_s
+    if (gaps or tcs) and episode.curriculum:
+        raise ValueError("--train.episode.curriculum orders the context's tiles from easy to hard; "
+                         "it cannot be combined with --train.episode.wall-gap-ratios / ground-timeconsts-s")
+    if any(g <= 0 for g in gaps):
+        raise ValueError(f"--train.episode.wall-gap-ratios must be positive body lengths, got {gaps}")
+    floor = 2 * cfg.sim.timestep_s
+    if any(t < floor for t in tcs):
+        raise ValueError(f"--train.episode.ground-timeconsts-s must be at least {floor} s (2 × the physics step, "
+                         f"MuJoCo's floor), got {tcs}")
+    base = ContextConfig()
+    walls = [base] + [replace(base, wall_gap_ratio=float(g)) for g in gaps]
+    return walls + [replace(c, ground_timeconst_s=float(t)) for t in tcs for c in walls]
+
+
 def make_training_worlds(
     context: str, cfg: BenchmarkConfig, seed: int, episode: EpisodeConfig | None = None
 ) -> list[World]:
     """Compiled worlds of a training context; tiles depend only on ``seed`` and the variant.
 
-    Friction is the nominal 1.0 here; domain randomisation overrides it per episode.
+    Friction is the nominal 1.0 here; domain randomisation overrides it per episode. With
+    ``EpisodeConfig.wall_gap_ratios`` / ``ground_timeconsts_s`` each tile comes once per
+    physical context of ``training_factor_contexts`` (the same tile in each).
     """
+    episode = episode or EpisodeConfig()
     cells = training_cells(context, cfg, episode)
-    return [build_world(cell, cfg, ContextConfig(), seed, variant=i) for i, cell in enumerate(cells)]
+    return [
+        build_world(cell, cfg, ctx, seed, variant=i)
+        for ctx in training_factor_contexts(cfg, episode)
+        for i, cell in enumerate(cells)
+    ]

@@ -575,6 +575,10 @@ class TrainingRun:
         noise = self.spec.train.randomization.active_sensor_noise
         if noise > 0 and self.spec.role != "teacher":  # a student is chosen on the sensors it trained for
             bench = replace(bench, eval=replace(bench.eval, sensor_noise=noise))
+        if v.wall_gap_ratio is not None:
+            bench = replace(bench, eval=replace(bench.eval, wall_gap_ratio=v.wall_gap_ratio))
+        if v.ground_timeconst_s is not None:
+            bench = replace(bench, eval=replace(bench.eval, ground_timeconst_s=v.ground_timeconst_s))
         t = time.time()
         # Loading the checkpoint builds networks from torch's global generator, which also draws
         # the training's action noise; checkpoints fall on a wall-clock timer, so without the fork
@@ -596,6 +600,8 @@ class TrainingRun:
                 + f": {score.successes}/{score.episodes} "
                 f"= {100 * score.success_rate:.1f} % (seed {v.seed}"
                 + (f", sensor noise x{bench.eval.sensor_noise:g}" if bench.eval.sensor_noise > 0 else "")
+                + (f", walls {v.wall_gap_ratio:g} body lengths apart" if v.wall_gap_ratio is not None else "")
+                + (f", ground time constant {v.ground_timeconst_s:g} s" if v.ground_timeconst_s is not None else "")
                 + f", {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
                 flush=True,

@@ -358,6 +358,12 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if episode.get("incline_slopes_deg") and not episode.get("curriculum"):
         slopes = ", ".join(f"{d:g}°" for d in episode["incline_slopes_deg"])
         rule += f"; incline training tiles of {slopes}, one drawn per episode (the benchmark's: 20°)"
+    if episode.get("wall_gap_ratios"):
+        gaps = ", ".join(f"{g:g}" for g in episode["wall_gap_ratios"])
+        rule += f"; training worlds between side walls {gaps} body lengths apart besides open ground, one drawn per episode"
+    if episode.get("ground_timeconsts_s"):
+        tcs = ", ".join(f"{t:g} s" for t in episode["ground_timeconsts_s"])
+        rule += f"; training worlds on softer ground (contact time constants {tcs}) besides the benchmark's 0.02 s"
     if episode.get("stand_start"):
         rule += (f"; {episode['stand_start']:.0%} of training episodes started standing with a random trunk velocity"
                  " instead of with the seed's fall (not in the seed)")
