@@ -337,6 +337,11 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert reward_summary({"role": "student-ppo", "train_config": steep}).endswith(
         "; incline training tiles of 20°, 22.5°, 25°, one drawn per episode (the benchmark's: 20°)"
     )
+    walls = {"reward": table, "episode": {"wall_gap_ratios": [1.5, 2.0], "ground_timeconsts_s": [0.05]}}
+    assert reward_summary({"role": "student-ppo", "train_config": walls}).endswith(
+        "; training worlds between side walls 1.5, 2 body lengths apart besides open ground, one drawn per episode"
+        "; training worlds on softer ground (contact time constants 0.05 s) besides the benchmark's 0.02 s"
+    )
     arrivals = {"reward": table, "episode": {"restart_arrivals": 0.3}}
     assert reward_summary({"role": "student-ppo", "train_config": arrivals}).endswith(
         "; 30% of training episodes restarted at recorded arrivals upright instead of with the seed's fall (not in the seed)"

@@ -134,6 +134,10 @@ def test_a_card_measured_through_sensor_noise_says_so_and_how_to_reproduce_it():
     exact = success_lines("flat", {**summary, "config": {"eval": {"sensor_noise": 0.0}}})
     assert "noise" not in " ".join(exact)
     assert noise_lines({}) == [] and "scale 1" in noise_lines({"train_config": {"randomization": {"sensor_noise": 1.0}}})[0]
+    walled = {**summary, "config": {"eval": {"wall_gap_ratio": 1.5, "ground_timeconst_s": 0.05, "friction": 1.0}}}
+    line, seed = success_lines("flat-walls", walled)
+    assert "side walls 1.5 body lengths apart, ground time constant 0.05 s, N = 64" in line
+    assert seed.endswith("--seed 0 --wall-gap-ratio 1.5 --ground-timeconst 0.05`") and "friction" not in seed
 
 
 def test_a_card_names_the_machines_that_trained_its_checkpoint(tmp_path: Path):

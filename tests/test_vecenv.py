@@ -67,6 +67,37 @@ def test_training_contexts():
         training_cells("moon", CFG)
 
 
+def test_training_between_walls_and_on_soft_ground():
+    """``wall_gap_ratios`` / ``ground_timeconsts_s`` build every tile in each further-factor
+    context; episodes in a walled world start midway between the walls and stay between them."""
+    ep = EpisodeConfig(wall_gap_ratios=(1.5,), ground_timeconsts_s=(0.05,))
+    worlds = make_training_worlds("flat", CFG, seed=0, episode=ep)
+    assert [(w.context.wall_gap_ratio, w.context.ground_timeconst_s) for w in worlds] == [
+        (None, 0.02), (1.5, 0.02), (None, 0.05), (1.5, 0.05)]
+    assert np.array_equal(worlds[0].tile.heights, worlds[3].tile.heights)  # the same tile in each
+    wall = worlds[1].model.geom("wall_left")
+    assert wall.contype[0] == 1 and wall.pos[1] == pytest.approx(1.5 * get_robot(CFG.robot.name).body_length_m / 2 + 0.05)
+    assert worlds[0].model.geom("wall_left").contype[0] == 0
+    g = worlds[2].model.geom(TERRAIN_GEOM).id
+    assert worlds[2].model.geom_solref[g, 0] == pytest.approx(0.05)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), worlds, num_envs=8, seed=2)
+    walled = np.isin(env.env.world_idx, [1, 3])
+    assert walled.any() and (~walled).any()
+    y = env.env.sl.pos.start + 1
+    with torch.inference_mode():
+        for _ in range(25):
+            env.step(torch.randn(8, 12, generator=torch.Generator().manual_seed(0)))
+    half_gap = 1.5 * get_robot(CFG.robot.name).body_length_m / 2
+    assert (np.abs(env.env.state[walled, y]) < half_gap).all()
+    env.close()
+    with pytest.raises(ValueError, match="curriculum"):
+        make_training_worlds("incline", CFG, 0, EpisodeConfig(curriculum=True, wall_gap_ratios=(2.0,)))
+    with pytest.raises(ValueError, match="positive"):
+        make_training_worlds("flat", CFG, 0, EpisodeConfig(wall_gap_ratios=(0.0,)))
+    with pytest.raises(ValueError, match="at least"):
+        make_training_worlds("flat", CFG, 0, EpisodeConfig(ground_timeconsts_s=(0.005,)))
+
+
 def test_step_shapes_rewards_and_factors(flat_worlds):
     env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=3, seed=0)
     obs = env.get_observations()

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from selfright.config import RewardConfig, RobotConfig
+from selfright.config import EvalConfig, RewardConfig, RobotConfig
 from selfright.evaluate.results import recorded_sensor_noise
 from selfright.policies.registry import CHECKPOINT_DIR
 
@@ -283,15 +283,33 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     flags = "" if motor == "ideal" else f" --motor {motor}"
     noise = recorded_sensor_noise(summary)
     flags += f" --sensor-noise {noise:g}" if noise > 0 else ""
+    words = f", through sensor noise ×{noise:g}" if noise > 0 else ""
+    for flag, text in factor_flags(summary):
+        flags += f" {flag}"
+        words += f", {text}"
     return [
-        f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`"
-        + (f", through sensor noise ×{noise:g}" if noise > 0 else "") + f", N = {o['n']}): "
+        f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`" + words + f", N = {o['n']}): "
         f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
         f"mean TTR {ttr}, mean DTR {dtr}" + (f"; measured on {cpu}" if cpu else ""),
         f"{SEED_PREFIX}: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell; "
         f"reproduce with `selfright evaluate --policy {name} --grid {summary.get('grid')} "
         f"--episodes {summary.get('episodes_per_cell')} --seed {summary.get('seed', 0)}{flags}`",
     ]
+
+
+def factor_flags(summary: dict[str, Any]) -> list[tuple[str, str]]:
+    """(``selfright evaluate`` flag, words) of each further factor an evaluation's ``summary.json``
+    was run under away from the benchmark's default (friction, side walls, ground compliance)."""
+    e = ((summary.get("config") or {}).get("eval")) or {}
+    default = EvalConfig()
+    out = []
+    if e.get("friction", default.friction) != default.friction:
+        out.append((f"--friction {e['friction']:g}", f"friction {e['friction']:g}"))
+    if e.get("wall_gap_ratio") is not None:
+        out.append((f"--wall-gap-ratio {e['wall_gap_ratio']:g}", f"side walls {e['wall_gap_ratio']:g} body lengths apart"))
+    if e.get("ground_timeconst_s", default.ground_timeconst_s) != default.ground_timeconst_s:
+        out.append((f"--ground-timeconst {e['ground_timeconst_s']:g}", f"ground time constant {e['ground_timeconst_s']:g} s"))
+    return out
 
 
 def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str) -> str:
