@@ -44,7 +44,7 @@ import csv
 import json
 import re
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -84,6 +84,11 @@ def card_run(name: str) -> Path:
     return Path(outs[0])
 
 
+SOURCE_FLAGS = ("init-from", "teacher", "rescue-student", "upright-policy", "tilted-policy")
+"""Endings of the ``selfright train`` flags whose value is a policy a run starts from or learns
+from (``--train.distillation.fallback-teacher`` and ``rough-teacher`` end in ``teacher``)."""
+
+
 def sources(meta: dict[str, Any]) -> list[tuple[str, str]]:
     """(relation, path) of every policy a run's weights or labels came from."""
     tc = meta.get("train_config", {})
@@ -121,6 +126,9 @@ class Lineage:
     """Per run, the iteration of each checkpoint a child read from it (``None``: the folder)."""
     missing: list[str]
     """Sources with no run meta here (a shipped policy's file, an uncommitted run)."""
+    shipped: dict[str, str] = field(default_factory=dict)
+    """Sources given as a shipped policy's name (``--init-from flat``) → the run checkpoint its
+    card names (``runs/flat_student_stance/model_394.pt``), walked as that checkpoint."""
 
 
 def checkpoint_iteration(path: str) -> int | None:
@@ -140,6 +148,10 @@ def walk(run: Path, root: Path, lin: Lineage) -> None:
     lin.metas[run] = meta
     lin.edges[run] = []
     for rel, src in sources(meta):
+        if run_dir(src, root) is None and shipped_path(src).with_suffix(".md").exists():
+            lin.shipped[src] = f"{card_run(src).as_posix().rstrip('/')}/model_{card_iterations(src) - 1}.pt"
+            rel = f"{rel} {src} (shipped):"
+            src = lin.shipped[src]
         parent = run_dir(src, root)
         used = f" (uses {Path(src).name})" if Path(src).suffix == ".pt" else ""
         if parent is None:
@@ -352,7 +364,9 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
             for out in re.findall(r"--out (\S+)", cmd):
                 names[out.rstrip("/")] = new
 
-    def moved(token: str) -> str:
+    def moved(token: str, after: str = "") -> str:
+        if after.endswith(SOURCE_FLAGS):  # a shipped name stands for its run only as a source's value
+            token = lin.shipped.get(token, token)
         head, sep, tail = token.partition("/model_")
         return names.get(head.rstrip("/"), head) + sep + tail
 
@@ -448,7 +462,8 @@ def replay_script(lin: Lineage, root: Path, prefix: str, last_end: int | None, m
         if restored:
             lines.append("# trained here as it was then: " + ", ".join(f"{f} {v}" for f, v in restored))
         for cmd, stop in segments(meta, ends):
-            tokens = [moved(t) for t in shlex.split(as_selfright(cmd))]
+            raw = shlex.split(as_selfright(cmd))
+            tokens = [moved(t, prev) for prev, t in zip(["", *raw], raw)]
             tokens = set_flag(tokens, "--iterations", [str(stop)])
             for flag, value in restored:
                 tokens = set_flag(tokens, flag, [value])

@@ -498,6 +498,19 @@ def test_lineage_of_each_shipped_policy_but_the_renamed_flat_teacher_starts_at_a
         assert " runs, " in capsys.readouterr().out.splitlines()[-1], card.stem
 
 
+def test_lineage_follows_a_shipped_policy_named_as_a_source_into_its_runs(monkeypatch, capsys):
+    """``flat-walls`` started ``--init-from flat``: the listing goes on into the runs of the shipped
+    ``flat`` (its card's run and checkpoint), and the script feeds the retrained checkpoint to the
+    source flag only, not to ``--context flat``."""
+    run_script("lineage.py", ["--policy", "flat-walls"], monkeypatch)
+    out = capsys.readouterr().out
+    assert "from --init-from flat (shipped): runs/flat_student_stance (uses model_394.pt)" in out
+    assert out.index("runs/flat_student_stance:") < out.index("runs/flat_walls_sppo:")
+    run_script("lineage.py", ["--policy", "flat-walls", "--script", "--from-step", "5"], monkeypatch)
+    sppo = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("step runs/retrain/flat_walls_sppo"))
+    assert "--context flat --init-from runs/retrain/flat_student_stance/model_394.pt" in sppo
+
+
 def test_noise_sweep_tabulates_each_policy_at_each_scale_on_the_same_falls(tmp_path, monkeypatch, capsys):
     import json
 
