@@ -148,11 +148,11 @@ def walk(run: Path, root: Path, lin: Lineage) -> None:
     lin.metas[run] = meta
     lin.edges[run] = []
     for rel, src in sources(meta):
-        if run_dir(src, root) is None and shipped_path(src).with_suffix(".md").exists():
-            lin.shipped[src] = f"{card_run(src).as_posix().rstrip('/')}/model_{card_iterations(src) - 1}.pt"
-            rel = f"{rel} {src} (shipped):"
-            src = lin.shipped[src]
         parent = run_dir(src, root)
+        if parent is None and shipped_path(src).with_suffix(".md").exists():
+            lin.shipped[src] = f"{card_run(src).as_posix()}/model_{card_iterations(src) - 1}.pt"
+            rel, src = f"{rel} {src} (shipped):", lin.shipped[src]
+            parent = run_dir(src, root)
         used = f" (uses {Path(src).name})" if Path(src).suffix == ".pt" else ""
         if parent is None:
             lin.edges[run].append(f"{rel} {src}{used}: no run meta here (a shipped policy or a file)")

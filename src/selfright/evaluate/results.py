@@ -141,6 +141,23 @@ def recorded_sensor_noise(summary: dict[str, Any]) -> float:
     return float((((summary.get("config") or {}).get("eval") or {}).get("sensor_noise")) or 0.0)
 
 
+def factor_flags(eval_cfg: dict[str, Any]) -> list[tuple[str, str]]:
+    """(``selfright evaluate`` flag, words) of each further factor in an ``EvalConfig`` (as a dict:
+    a ``summary.json``'s ``config.eval``) set away from the benchmark's default: friction, side
+    walls, ground compliance."""
+    from selfright.config import EvalConfig
+
+    default, e = EvalConfig(), eval_cfg
+    out = []
+    if e.get("friction", default.friction) != default.friction:
+        out.append((f"--friction {e['friction']:g}", f"friction {e['friction']:g}"))
+    if e.get("wall_gap_ratio") is not None:
+        out.append((f"--wall-gap-ratio {e['wall_gap_ratio']:g}", f"side walls {e['wall_gap_ratio']:g} body lengths apart"))
+    if e.get("ground_timeconst_s", default.ground_timeconst_s) != default.ground_timeconst_s:
+        out.append((f"--ground-timeconst {e['ground_timeconst_s']:g}", f"ground time constant {e['ground_timeconst_s']:g} s"))
+    return out
+
+
 def check_run_identity(out: Path, identity: dict[str, Any]) -> None:
     """Refuse to resume into a directory that holds a different run."""
     path = out / "run.json"

@@ -76,6 +76,13 @@ def scene_mjcf(robot: RobotSpec, tile: Tile, ctx: ContextConfig, robot_cfg: Robo
             f"joint_stop_timeconst_s {robot_cfg.joint_stop_timeconst_s} s is under 2 × the {sim.timestep_s} s "
             "physics step, which MuJoCo would silently raise; use at least twice the step"
         )
+    if ctx.ground_timeconst_s < 2 * sim.timestep_s:
+        raise ValueError(
+            f"ground_timeconst_s {ctx.ground_timeconst_s} s is under 2 × the {sim.timestep_s} s physics step, "
+            "which MuJoCo would silently raise; use at least twice the step"
+        )
+    if ctx.wall_gap_ratio is not None and ctx.wall_gap_ratio <= 0:
+        raise ValueError(f"wall_gap_ratio must be a positive number of body lengths, got {ctx.wall_gap_ratio}")
     # "envelope" is the ideal servos; the env limits their targets (selfright.sim.dc_envelope)
     # and reads the speed itself. A speed for the ideal servos is refused by the robot's mjcf.
     envelope = robot_cfg.motor == "envelope"

@@ -33,6 +33,7 @@ from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
+from selfright.evaluate.results import factor_flags
 from selfright.env.goal import goal_height_m
 from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
@@ -600,8 +601,7 @@ class TrainingRun:
                 + f": {score.successes}/{score.episodes} "
                 f"= {100 * score.success_rate:.1f} % (seed {v.seed}"
                 + (f", sensor noise x{bench.eval.sensor_noise:g}" if bench.eval.sensor_noise > 0 else "")
-                + (f", walls {v.wall_gap_ratio:g} body lengths apart" if v.wall_gap_ratio is not None else "")
-                + (f", ground time constant {v.ground_timeconst_s:g} s" if v.ground_timeconst_s is not None else "")
+                + "".join(f", {words}" for _, words in factor_flags(to_dict(bench.eval)))
                 + f", {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
                 flush=True,

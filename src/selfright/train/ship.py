@@ -15,8 +15,8 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from selfright.config import EvalConfig, RewardConfig, RobotConfig
-from selfright.evaluate.results import recorded_sensor_noise
+from selfright.config import ContextConfig, RewardConfig, RobotConfig
+from selfright.evaluate.results import factor_flags, recorded_sensor_noise
 from selfright.policies.registry import CHECKPOINT_DIR
 
 if TYPE_CHECKING:
@@ -284,7 +284,7 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     noise = recorded_sensor_noise(summary)
     flags += f" --sensor-noise {noise:g}" if noise > 0 else ""
     words = f", through sensor noise ×{noise:g}" if noise > 0 else ""
-    for flag, text in factor_flags(summary):
+    for flag, text in factor_flags(((summary.get("config") or {}).get("eval")) or {}):
         flags += f" {flag}"
         words += f", {text}"
     return [
@@ -295,21 +295,6 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
         f"reproduce with `selfright evaluate --policy {name} --grid {summary.get('grid')} "
         f"--episodes {summary.get('episodes_per_cell')} --seed {summary.get('seed', 0)}{flags}`",
     ]
-
-
-def factor_flags(summary: dict[str, Any]) -> list[tuple[str, str]]:
-    """(``selfright evaluate`` flag, words) of each further factor an evaluation's ``summary.json``
-    was run under away from the benchmark's default (friction, side walls, ground compliance)."""
-    e = ((summary.get("config") or {}).get("eval")) or {}
-    default = EvalConfig()
-    out = []
-    if e.get("friction", default.friction) != default.friction:
-        out.append((f"--friction {e['friction']:g}", f"friction {e['friction']:g}"))
-    if e.get("wall_gap_ratio") is not None:
-        out.append((f"--wall-gap-ratio {e['wall_gap_ratio']:g}", f"side walls {e['wall_gap_ratio']:g} body lengths apart"))
-    if e.get("ground_timeconst_s", default.ground_timeconst_s) != default.ground_timeconst_s:
-        out.append((f"--ground-timeconst {e['ground_timeconst_s']:g}", f"ground time constant {e['ground_timeconst_s']:g} s"))
-    return out
 
 
 def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str) -> str:
@@ -381,7 +366,8 @@ def reward_summary(meta: dict[str, Any]) -> str:
         rule += f"; training worlds between side walls {gaps} body lengths apart besides open ground, one drawn per episode"
     if episode.get("ground_timeconsts_s"):
         tcs = ", ".join(f"{t:g} s" for t in episode["ground_timeconsts_s"])
-        rule += f"; training worlds on softer ground (contact time constants {tcs}) besides the benchmark's 0.02 s"
+        rule += (f"; training worlds on softer ground (contact time constants {tcs}) besides the benchmark's "
+                 f"{ContextConfig().ground_timeconst_s:g} s")
     if episode.get("stand_start"):
         rule += (f"; {episode['stand_start']:.0%} of training episodes started standing with a random trunk velocity"
                  " instead of with the seed's fall (not in the seed)")
