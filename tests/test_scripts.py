@@ -192,6 +192,23 @@ def test_replay_on_a_larger_tile_keeps_the_falls(monkeypatch, capsys):
     assert sum(failure_classes(capsys.readouterr().out)) == 2
 
 
+def test_replay_under_the_further_factors(monkeypatch, capsys):
+    """The diagnostic scripts take ``selfright evaluate``'s factors (walls, softer ground,
+    friction, sensor noise) into the worlds they replay, so a miss between walls can be classed."""
+    from selfright.evaluate.runner import ReplayArgs, replay_env
+
+    a = ReplayArgs(policy="zero", episodes=2, wall_gap_ratio=1.5, ground_timeconst=0.05, friction=0.8, sensor_noise=0.5)
+    cfg = a.bench_config()
+    assert (cfg.eval.wall_gap_ratio, cfg.eval.ground_timeconst_s, cfg.eval.friction, cfg.eval.sensor_noise) == (1.5, 0.05, 0.8, 0.5)
+    env, _ = replay_env(a, cfg)
+    world = env.worlds[0]
+    assert (world.context.wall_gap_ratio, world.context.ground_timeconst_s, world.context.friction) == (1.5, 0.05, 0.8)
+    assert world.model.geom("wall_left").contype[0] == 1
+    env.close()
+    run_script("failure_modes.py", ["--policy", "zero", "--episodes", "2", "--wall-gap-ratio", "1.5"], monkeypatch)
+    assert sum(failure_classes(capsys.readouterr().out)) == 2
+
+
 def test_average_checkpoints_means_the_actor_and_keeps_the_rest(tmp_path, monkeypatch):
     import torch
 
