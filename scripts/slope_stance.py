@@ -14,6 +14,7 @@ to keep adjusting, and the fixed-stance recipes that helped on rough ground
 
     python scripts/slope_stance.py                       # 0°, 10°, 15°, 20°
     python scripts/slope_stance.py --slopes-deg 20 --friction 0.6
+    python scripts/slope_stance.py --slopes-deg 10 20 --kp 100     # stiffer servos (not the A1's)
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ class Args:
     side is the mirror image)."""
     friction: float = 1.0
     hold_s: float = 4.0
+    kp: float | None = None
+    """PD stiffness of every joint (N·m/rad); ``None`` = the benchmark's (``RobotConfig.kp``, 50)."""
 
 
 def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, height_m: float,
@@ -68,6 +71,8 @@ def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, 
 
 def main(a: Args) -> None:
     cfg = BenchmarkConfig()
+    if a.kp is not None:
+        cfg = replace(cfg, robot=replace(cfg.robot, kp=a.kp))
     robot = get_robot(cfg.robot.name)
     base = grid_cells("incline", cfg.terrain)[0]
     legs = len(robot.joint_names) // 3
@@ -76,7 +81,7 @@ def main(a: Args) -> None:
     # Trunk over the feet's bottoms in each pose (the robot's own forward kinematics), plus the clearance.
     level = KinematicHeight(robot).level(np.stack(list(poses.values())))
     heights = {name: float(h) + CLEARANCE_M for name, h in zip(poses, level, strict=True)}
-    print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}; "
+    print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}, Kp {cfg.robot.kp:g}; "
           f"headings {', '.join(f'{h:g}' for h in a.headings_deg)}° (0 = facing uphill)")
     for deg in a.slopes_deg:
         cell = replace(base, slope_pct=100.0 * math.tan(math.radians(deg)))
