@@ -45,6 +45,8 @@ class Args:
     """The training run's ``--seed`` (its tiles depend on it)."""
     rough_variants: int = 8
     """The training run's ``--train.episode.rough-variants`` (its tiles depend on it)."""
+    rough_min_extent_m: float = 0.0
+    """The training run's ``--train.episode.rough-min-extent-m`` (its tiles depend on it)."""
     episodes: int = 64
     """Episodes per cell."""
     threads: int = 1
@@ -56,7 +58,7 @@ def main(a: Args) -> None:
                       out=a.out, plots=False, progress=False)
     cfg = ev.bench_config()
     ctx = context_config(cfg)
-    train = training_cells("rough", cfg, EpisodeConfig(rough_variants=a.rough_variants))
+    train = training_cells("rough", cfg, EpisodeConfig(rough_variants=a.rough_variants, rough_min_extent_m=a.rough_min_extent_m))
     extents = np.array([c.roughness_extent_m for c in train])
 
     def swapped(cell: Cell) -> World:

@@ -59,6 +59,11 @@ def test_training_contexts():
     extents = [c.roughness_extent_m for c in rough]
     assert len(rough) == EpisodeConfig().rough_variants and max(extents) == pytest.approx(EpisodeConfig().rough_max_extent_m)
     assert all(c.slope_pct == 0 for c in rough)
+    hard = training_cells("rough", CFG, EpisodeConfig(rough_variants=4, rough_min_extent_m=0.15))
+    assert [c.roughness_extent_m for c in hard] == pytest.approx([0.2, 0.25, 0.3, 0.35])
+    assert [c.roughness_level for c in hard] == sorted(c.roughness_level for c in hard)
+    with pytest.raises(ValueError, match="rough_min_extent_m"):
+        training_cells("rough", CFG, EpisodeConfig(rough_min_extent_m=0.4))
     (incline,) = training_cells("incline", CFG)
     assert incline.slope_deg == pytest.approx(20.0)
     steep = training_cells("incline", CFG, EpisodeConfig(incline_slopes_deg=(20.0, 25.0)))

@@ -183,6 +183,12 @@ class EpisodeConfig:
     """Largest peak-to-peak roughness extent of the ``rough`` context (m). 0.35 m covers
     ``--grid rough`` (levels 4, 8, 12: 0.105, 0.21, 0.32 m) with a margin, so the policy is
     judged on roughness it trained on."""
+    rough_min_extent_m: float = 0.0
+    """The ``rough`` context's extents are evenly spaced over (``rough_min_extent_m``,
+    ``rough_max_extent_m``]: the tiles lie at ``min + (max - min) · k / rough_variants``,
+    k = 1 … ``rough_variants``. 0 (the default, the shipped runs' tiles) spreads them from
+    the flat plane up; a larger value gives the rough ground's hardest levels a larger share
+    of the training episodes (e.g. 0.15 puts every tile between the grid's levels 6 and 13)."""
 
 
 @dataclass(frozen=True, kw_only=True)

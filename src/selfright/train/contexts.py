@@ -2,8 +2,8 @@
 
 flat:    the flat plane.
 rough:   level ground, ``EpisodeConfig.rough_variants`` tiles whose roughness extents are
-         evenly spaced up to ``rough_max_extent_m`` (noise wavelength: ``TerrainConfig``'s,
-         half a body length). Each episode draws one tile.
+         evenly spaced from ``rough_min_extent_m`` (exclusive) up to ``rough_max_extent_m``
+         (noise wavelength: ``TerrainConfig``'s, half a body length). Each episode draws one tile.
 incline: a 20° smooth slope rising along +x. No yaw variants are needed: the fall
          orientation is uniform on SO(3), so every heading on the slope occurs. With
          ``EpisodeConfig.curriculum`` one tile per slope of ``incline_curriculum_deg``; with
@@ -48,7 +48,10 @@ def training_cells(context: str, cfg: BenchmarkConfig, episode: EpisodeConfig | 
     if context == "rough":
         base = grid_cells("flat", cfg.terrain)[0]
         top = cfg.terrain.num_roughness_levels - 1
-        extents = episode.rough_max_extent_m * np.arange(1, episode.rough_variants + 1) / episode.rough_variants
+        low, high = episode.rough_min_extent_m, episode.rough_max_extent_m
+        if not 0.0 <= low < high:
+            raise ValueError(f"rough extents need 0 <= rough_min_extent_m < rough_max_extent_m, got {low} and {high}")
+        extents = low + (high - low) * np.arange(1, episode.rough_variants + 1) / episode.rough_variants
         return [
             replace(
                 base,
