@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Callable, Literal
 import tyro
 
 from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, Motor, RobotConfig, SimConfig
+from selfright.evaluate.factors import FurtherFactors
 
 if TYPE_CHECKING:
     from selfright.env.world import World
@@ -29,8 +30,9 @@ def policy_stem(policy: str) -> str:
 
 
 @dataclass(frozen=True)
-class _Episodes:
-    """Options shared by ``evaluate`` and ``replay``: which policy, which episodes, under what."""
+class _Episodes(FurtherFactors):
+    """Options shared by ``evaluate`` and ``replay``: which policy, which episodes, under what
+    (the further factors: ``FurtherFactors``)."""
 
     policy: str = "open-loop"
     """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file | a training run folder (its latest checkpoint) | your Python policy as FILE.py:NAME or package.module:NAME (README, *Your own policy*)."""
@@ -40,14 +42,6 @@ class _Episodes:
     """Run seed: terrain and every episode's fall are derived from it."""
     threads: int = 0
     """Physics threads (0 = one per core)."""
-    friction: float = 1.0
-    """Ground friction of every cell."""
-    wall_gap_ratio: float | None = None
-    """Confined space: side walls this many body lengths apart (default: none)."""
-    ground_timeconst: float = 0.02
-    """Ground compliance: contact time constant (s); larger = softer."""
-    sensor_noise: float = 0.0
-    """Sensor noise: Gaussian noise on what the policy senses, in multiples of IMU gravity 0.05, gyro 0.2 rad/s, joint angles 0.01 rad, joint speeds 1.5 rad/s (default 0: exact sensors)."""
     hold_s: float = 1.0
     """Seconds the goal set must be held for success."""
     episode_s: float = 10.0
@@ -61,9 +55,8 @@ class _Episodes:
 
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(
-            threads=self.threads, batch_size=batch_size, friction=self.friction, wall_gap_ratio=self.wall_gap_ratio,
-            ground_timeconst_s=self.ground_timeconst, sensor_noise=self.sensor_noise, hold_s=self.hold_s, episode_s=self.episode_s,
-            action_reference=self.action_reference, motor=self.motor,
+            threads=self.threads, batch_size=batch_size, hold_s=self.hold_s, episode_s=self.episode_s,
+            action_reference=self.action_reference, motor=self.motor, **self.factor_kwargs(),
         )
 
 

@@ -19,6 +19,7 @@ from tqdm import tqdm
 from selfright.config import BenchmarkConfig, ContextConfig, Motor, to_dict
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
+from selfright.evaluate.factors import FurtherFactors
 from selfright.evaluate.metrics import summarize
 from selfright.machine import machine
 from selfright.evaluate.results import (
@@ -161,8 +162,9 @@ def rollout_batch(
 
 
 @dataclass(frozen=True)
-class ReplayArgs:
-    """Which benchmark episodes a diagnostic script replays (the falls of ``selfright evaluate``)."""
+class ReplayArgs(FurtherFactors):
+    """Which benchmark episodes a diagnostic script replays (the falls of ``selfright evaluate``),
+    under the further factors as ``selfright evaluate`` takes them."""
 
     policy: str = "flat"
     """Policy name, file or run folder (as for ``selfright evaluate``)."""
@@ -181,14 +183,6 @@ class ReplayArgs:
     """Side of each cell's tile (m); ``None`` = the benchmark's (8 m). Same drop square and
     falls on a larger tile: episodes that roll far keep going instead of failing at the edge
     (a diagnostic; results on another tile are not the benchmark's)."""
-    friction: float = 1.0
-    """Ground friction of every cell (as ``selfright evaluate --friction``)."""
-    wall_gap_ratio: float | None = None
-    """Side walls this many body lengths apart (as ``selfright evaluate --wall-gap-ratio``); ``None`` = none."""
-    ground_timeconst: float = 0.02
-    """Ground contact time constant (s), larger = softer (as ``selfright evaluate --ground-timeconst``)."""
-    sensor_noise: float = 0.0
-    """Sensor noise, in multiples of ``SENSOR_NOISE_STD`` (as ``selfright evaluate --sensor-noise``)."""
 
     tilted_policy: str | None = None
     """A second policy that acts while the trunk is tilted more than ``tilt_deg`` (the
@@ -241,9 +235,7 @@ class ReplayArgs:
     def bench_config(self) -> BenchmarkConfig:
         """The benchmark's configuration, with ``tile_size_m``, ``motor`` and the further factors if given."""
         cfg = BenchmarkConfig()
-        cfg = dataclasses.replace(cfg, eval=dataclasses.replace(
-            cfg.eval, friction=self.friction, wall_gap_ratio=self.wall_gap_ratio,
-            ground_timeconst_s=self.ground_timeconst, sensor_noise=self.sensor_noise))
+        cfg = dataclasses.replace(cfg, eval=self.apply(cfg.eval))
         if self.motor != cfg.robot.motor:
             cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor=self.motor))
         if self.tile_size_m is None:
