@@ -26,6 +26,8 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --seed 20 --out results/incline_side_s20
     python scripts/policy_variants.py --policies incline --brake-pose 0 0.46 0.46 -0.92 --grid incline \\
         --seed 4 --out results/incline_brake_s4
+    python scripts/policy_variants.py --policies rough --latch-upright-s 0.5 --grid rough \\
+        --seed 4 --out results/rough_latched_s4
     python scripts/policy_variants.py --policies incline-dc --envelope-speed-rad-s 15 --grid incline \\
         --seed 4 --out results/incline_dc_v15_s4
 
@@ -51,7 +53,8 @@ from selfright.policies.registry import _make_policy, check_action_mapping, make
 from selfright.policies.sensor_noise import NoisySensors
 from selfright.policies.stall import ScanSwitch, hand_over_rule
 from selfright.policies.variants import (
-    Blinded, Braked, EstimatedVelocity, Fallback, MeanOf, PoseUpright, Noisy, SideMirrored, Smoothed, trained_std,
+    Blinded, Braked, EstimatedVelocity, Fallback, Latched, MeanOf, PoseUpright, Noisy, SideMirrored, Smoothed,
+    trained_std,
 )
 from selfright.robots import get_robot
 
@@ -146,6 +149,16 @@ class Args:
     """With ``brake_pose``: brake only while the trunk turns faster than this (rad/s)."""
     brake_release_rps: float = 1.0
     """With ``brake_pose``: the brake ends after 0.2 s under this angular speed (rad/s), or after 2 s."""
+    latch_upright_s: float = 0.0
+    """Once the trunk has been upright within ``latch_tilt_deg`` and turning slower than
+    ``latch_still_rps`` for this long (s), keep the action of that moment until it tilts past
+    ``latch_release_deg`` (``selfright.policies.variants.Latched``); 0 = off."""
+    latch_tilt_deg: float = 20.0
+    """With ``latch_upright_s``: how upright counts as upright (deg)."""
+    latch_still_rps: float = 0.5
+    """With ``latch_upright_s``: how slowly the trunk must turn to count as still (rad/s)."""
+    latch_release_deg: float = 45.0
+    """With ``latch_upright_s``: the tilt past which the policy acts again (deg)."""
     envelope_speed_rad_s: float | None = None
     """Hold every policy to the DC torque-speed envelope of motors with this no-load speed (rad/s)
     on the ideal servos (``selfright.policies.torque_envelope``), instead of a DC-trained policy's
@@ -181,6 +194,11 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         policy = Braked(policy, splayed_action(robot, cfg.action, *a.brake_pose),
                         tilt_deg=a.brake_tilt_deg, spin_rps=a.brake_spin_rps, release_rps=a.brake_release_rps,
                         calm_steps=max(1, round(0.2 / dt)), max_steps=max(1, round(2.0 / dt)))
+    if a.latch_upright_s > 0:
+        if cfg.action.reference == "current":
+            raise ValueError("--latch-upright-s holds actions, which move the targets under ActionConfig.reference 'current'")
+        policy = Latched(policy, max(1, round(a.latch_upright_s / dt)), a.latch_tilt_deg, a.latch_still_rps,
+                         a.latch_release_deg)
     if a.side_mirror:
         policy = SideMirrored(policy, a.side_mirror, cfg.robot.name)
     policy = Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
@@ -279,6 +297,8 @@ def main(a: Args) -> None:
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
     name += (f" (braked to {a.brake_pose} past {a.brake_tilt_deg:g} deg after upright)"
              if a.brake_pose is not None else "")
+    name += (f" (latched after {a.latch_upright_s:g} s upright within {a.latch_tilt_deg:g} deg under "
+             f"{a.latch_still_rps:g} rad/s, released past {a.latch_release_deg:g} deg)" if a.latch_upright_s > 0 else "")
     name += f" (mirrored unless gravity's body y is {a.side_mirror:+d} at the start)" if a.side_mirror else ""
     name += f" (DC envelope at {a.envelope_speed_rad_s:g} rad/s)" if a.envelope_speed_rad_s is not None else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,

@@ -466,6 +466,36 @@ def test_braked_holds_its_pose_from_a_re_fall_until_the_trunk_is_still():
         Braked(_Ones(), pose, arm_deg=60.0, tilt_deg=45.0)
 
 
+def test_latched_keeps_the_action_of_the_moment_it_stood_still_until_it_tilts_over():
+    from selfright.policies.variants import Latched
+
+    class _Count(Policy):  # a policy whose action changes every step
+        n = 0.0
+
+        def act(self, obs, ids, contexts):
+            self.n += 1.0
+            return torch.full((len(ids), 12), self.n)
+
+    def obs(gz, spin):
+        x = torch.zeros(1, 42)
+        x[0, 2], x[0, 3] = gz, spin
+        return {"student": x}
+
+    p = Latched(_Count(), delay_steps=2, tilt_deg=20.0, still_rps=0.5, release_deg=45.0)
+    ids = np.array([0])
+    p.reset(ids)
+    act = lambda gz, spin: p.act(obs(gz, spin), ids, [None])[0, 0].item()  # noqa: E731
+    assert [act(-1.0, 1.0), act(-1.0, 1.0)] == [1.0, 2.0]  # upright but turning: the policy acts
+    assert [act(-1.0, 0.1), act(-1.0, 0.1), act(-1.0, 2.0), act(-0.8, 0.1)] == [3.0, 4.0, 4.0, 4.0]  # latched at step 4
+    assert act(0.0, 0.1) == 7.0  # tilted past 45 deg: released
+    assert [act(-1.0, 0.1), act(-1.0, 0.1), act(-1.0, 0.1)] == [8.0, 9.0, 9.0]  # still again: latched again
+    assert p.latches == 2
+    p.reset(ids)
+    assert act(-1.0, 0.1) == 11.0  # a new episode starts unlatched
+    with pytest.raises(ValueError, match="tilt_deg"):
+        Latched(_Count(), 2, tilt_deg=50.0, release_deg=45.0)
+
+
 def test_splayed_action_turns_the_hips_out_on_both_sides():
     from selfright.config import ActionConfig
     from selfright.policies.pose_blend import splayed_action
