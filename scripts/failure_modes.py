@@ -12,7 +12,8 @@ over)": the trunk was within 45° of upright at some step and tilted past 90° a
 On the incline most episodes that leave the tile carry the second: they tumble downhill after
 getting up, not while lying on the back.
 
-and prints, for the "low" class, the trunk height above the ground beneath it and above the
+and prints, for the "feet off" class, how high the lifted feet hang over the ground beneath them
+(foot centres: a foot resting on the ground reads about its 0.02 m radius), for the "low" class, the trunk height above the ground beneath it and above the
 mean ground under the feet (they differ on rough tiles; the goal set reads the first) and how
 long the robot had stood upright on four feet when the episode ended, the same height for the
 successes (the margin they clear the bar by), and,
@@ -51,6 +52,7 @@ def main(a: ReplayArgs) -> None:
         low_h: list[tuple[float, float, float]] = []
         success_h: list[float] = []
         stances: list[np.ndarray] = []  # (height over feet, J joint angles) of every end on four feet, upright
+        lifted: list[float] = []  # the lifted feet's gaps over the ground beneath them, "feet off" ends
         for eps, seeds in replay_batches(a, cell, env.num_envs):
             ids = np.arange(len(eps))
             ever_goal = np.zeros(len(eps), bool)
@@ -77,6 +79,10 @@ def main(a: ReplayArgs) -> None:
             feet_down = st.feet_contact.sum(dim=-1).numpy()
             height = st.height.numpy()
             over_feet = env.height_over_feet(ids)
+            feet = env.feet_xyz(ids)  # (k, F, 3) foot geom centres
+            f = feet.shape[1]
+            gap = feet[:, :, 2] - env.ground_height(np.repeat(ids, f), feet[:, :, :2].reshape(-1, 2)).reshape(-1, f)
+            contact = st.feet_contact.numpy().astype(bool)
             q = st.q.numpy()
             for i in ids:
                 if is_up[i] and feet_down[i] == 4:
@@ -93,6 +99,7 @@ def main(a: ReplayArgs) -> None:
                     classes["not upright"] += 1
                 elif feet < 4:
                     classes["upright, feet off"] += 1
+                    lifted.extend(gap[i][~contact[i]].tolist())
                 elif h < bar:
                     classes["upright, 4 feet, low"] += 1
                     low_h.append((h, h_feet, standing[i] * cfg.sim.control_dt_s))
@@ -110,6 +117,10 @@ def main(a: ReplayArgs) -> None:
             print(f"  low: height above ground beneath trunk median {np.median(h[:, 0]):.3f} m; "
                   f"above mean foot ground median {np.median(h[:, 1]):.3f} m (bar {bar:.2f} m); "
                   f"had stood upright on four feet for a median {np.median(h[:, 2]):.1f} s")
+        if lifted:
+            g = np.array(lifted)
+            print(f"  feet off: {len(g)} lifted feet, their centres {np.median(g):.3f} m over the ground beneath "
+                  f"them (median; 10th–90th percentile {np.percentile(g, 10):.3f}–{np.percentile(g, 90):.3f} m)")
         if success_h:
             p10, p50, p90 = np.percentile(success_h, [10, 50, 90])
             print(f"  successes end {p50:.3f} m above the ground beneath the trunk (10th–90th percentile "
