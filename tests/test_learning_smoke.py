@@ -741,3 +741,42 @@ def test_stance_teacher_hands_a_tilted_stall_to_the_rescue_student():
     assert torch.equal(teacher(obs), torch.zeros(3, 12))
     with pytest.raises(ValueError, match="hand-over rule"):
         StanceTeacher(base, "student", 3, 35.0, 100, 1, torch.zeros(12), rescue=rescue)
+
+
+def test_stance_teacher_holds_the_previous_action_once_still_over_the_bar():
+    """--train.distillation.hold-after-s: a robot upright, over the height, with its trunk and
+    joints still for the delay is labelled with the action it took the step before; one that
+    moves, stands under the height or tilts over is labelled by the base; an episode's end resets
+    the count."""
+    from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns, privileged_columns
+    from selfright.train.stance_teacher import StanceTeacher, StillHold
+
+    priv = privileged_columns(12)
+    width = priv["factors"].stop
+    base = lambda x: torch.zeros(x.shape[0], 12)  # noqa: E731
+    hold = StillHold(4, 12, delay_steps=2, tilt_deg=15.0, height_m=0.32, speed_mps=0.1, joint_speed_rad_s=1.0)
+    teacher = StanceTeacher(base, "student", 4, 15.0, 0, 1, None, hold=hold)
+    x = torch.zeros(4, width)
+    x[:, 2] = -1.0  # upright
+    x[:, priv["height"].start] = torch.tensor([0.35, 0.30, 0.35, 0.35])  # env 1 under the bar
+    x[2, priv["velocity"].start] = 0.5  # env 2's trunk moves
+    x[3, joint_vel_columns(12).start] = 3.0 * JOINT_VEL_SCALE  # env 3 has a leg in mid-step
+    x[:, prev_action_columns(12)] = 0.7
+    obs = {"teacher": x, "student": x[:, :42]}
+    assert torch.equal(teacher(obs), torch.zeros(4, 12))  # still for one step: not yet
+    labels = teacher(obs)
+    torch.testing.assert_close(labels[0], torch.full((12,), 0.7))  # held: the previous action
+    assert torch.equal(labels[1:], torch.zeros(3, 12))
+    teacher.reset(torch.tensor([True, False, False, False]))
+    assert torch.equal(teacher(obs)[0], torch.zeros(12))  # a new episode counts again
+    tilted = x.clone()
+    tilted[:, 0:3] = torch.tensor([1.0, 0.0, 0.0])
+    assert torch.equal(teacher({"teacher": tilted, "student": tilted[:, :42]}), torch.zeros(4, 12))
+    with pytest.raises(ValueError, match="delay"):
+        StillHold(4, 12, 0, 15.0, 0.32, 0.1, 1.0)
+
+
+def test_hold_labels_need_a_student_to_hold(tmp_path):
+    held = dataclasses.replace(TINY, distillation=dataclasses.replace(TINY.distillation, hold_after_s=0.5))
+    with pytest.raises(ValueError, match="hold-after-s"):
+        TrainingRun(spec(tmp_path / "bad", train=held)).setup()

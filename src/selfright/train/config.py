@@ -359,6 +359,22 @@ class DistillationConfig:
     """With ``stance_ramp_s``: how far the labels blend, in (0, 1]: 1 = all the way to
     ``stance_pose``; 0.3 = the base student's action moved 30 % of the way there, its own
     balance corrections kept (on the 20° incline the full stance tips over; docs/training.md)."""
+    hold_after_s: float = 0.0
+    """> 0 with a student ``--teacher``: once the robot has stood still over the goal bar for this
+    long (s) — trunk upright within ``stance_tilt_deg``, its height above the ground beneath it at
+    least ``hold_height_m``, trunk slower than ``hold_speed_mps``, every joint slower than
+    ``hold_joint_speed_rad_s``; the privileged teacher observation tells all of it — the labels are
+    the action the student took the step before: keep the joint targets, stop moving
+    (``selfright.train.stance_teacher``). Teaches a blind student that steps on when it already
+    stands where the goal set counts it to stay there. **Not** the seed's recipe. 0 = off."""
+    hold_height_m: float | None = None
+    """With ``hold_after_s``: the trunk height above the ground beneath it (m) over which a still
+    robot holds; None = the goal bar (``GoalConfig``: 80 % of the leg length)."""
+    hold_speed_mps: float = 0.1
+    """With ``hold_after_s``: how slowly the trunk must move to count as still (m/s)."""
+    hold_joint_speed_rad_s: float = 1.0
+    """With ``hold_after_s``: how slowly every joint must turn to count as still (rad/s); a leg in
+    mid-step turns faster, so a step is not frozen with a foot in the air."""
     rescue_student: str | None = None
     """With ``stance_ramp_s``: a feed-forward student (policy name, file or run) whose actions
     label the states where the robot has lain still, tilted more than 30°, for ``stall_s``, and

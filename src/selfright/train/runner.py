@@ -52,7 +52,7 @@ from selfright.train.config import LABEL_GROUP, PolicyConfig, Role, TrainConfig,
 from selfright.train.contexts import make_training_worlds, training_bench
 from selfright.train.ema import attach_weight_average
 from selfright.train.fallback_teacher import FallbackTeacher
-from selfright.train.stance_teacher import StanceTeacher
+from selfright.train.stance_teacher import StanceTeacher, StillHold
 from selfright.train.student_ppo import (
     attach_critic_warmup,
     is_student,
@@ -225,6 +225,9 @@ class TrainingRun:
             raise ValueError("a student labelled by another student (--teacher STUDENT"
                              + (", --train.distillation.stance-ramp-s" if d.stance_ramp_s > 0 else "")
                              + ") is one feed-forward network: no fallback teacher, no GRU")
+        if d.hold_after_s > 0 and not self.labels_from_student:
+            raise ValueError("--train.distillation.hold-after-s holds a student's own labels: it needs --role student "
+                             "and --teacher STUDENT (a student run, checkpoint or policy)")
         if d.rescue_student is not None and s.train.randomization.active_sensor_noise > 0:
             raise ValueError("--train.distillation.rescue-student reads the student observation, which "
                              "--train.randomization.sensor-noise reaches; its labels would be noisy")
@@ -430,9 +433,14 @@ class TrainingRun:
             rescue = dict(rescue=net.to(s.device).eval(), rescue_group=student_group(net.meta.obs_history),
                           rescue_switch=StallSwitch(round(d.stall_s / dt), round(d.rescue_s / dt), None, robot.num_joints),
                           rescue_offset=offset)
+        hold = None
+        if d.hold_after_s > 0:
+            bar = d.hold_height_m if d.hold_height_m is not None else goal_height_m(s.bench.goal, robot.leg_length_m)
+            hold = StillHold(s.num_envs, robot.num_joints, max(1, round(d.hold_after_s / dt)), d.stance_tilt_deg, bar,
+                             d.hold_speed_mps, d.hold_joint_speed_rad_s)
         teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
-                                weight=d.stance_weight, **rescue)
+                                weight=d.stance_weight, hold=hold, **rescue)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:

@@ -15,6 +15,11 @@ student's own actions: a copy of the student, e.g. onto noisy sensors. The label
 always reads the *exact* student observation (group ``LABEL_GROUP``), so a student trained under
 ``--train.randomization.sensor-noise`` learns what the labeller does on exact sensors.
 
+Optionally (``hold``, a ``StillHold``) the labels of a robot that has stood still over the goal
+bar for a while are the student's own previous action: keep the targets, stop stepping. The
+privileged teacher observation decides it (trunk height above the ground beneath it, trunk
+velocity); the student learns when to hold from what its own sensors show in those states.
+
 Optionally a second, *rescue* student labels the states where the robot has lain still, tilted
 over (``StallSwitch`` without a height bar: IMU and joint speeds only), for a while: the
 incline student lies still on its side in about one miss in ten, and handing those stalls to
@@ -27,10 +32,47 @@ import numpy as np
 import torch
 from torch import nn
 
+from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns, privileged_columns
 from selfright.policies.actor import ActorMLP
 from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
 from selfright.policies.reference import ReferenceShift
 from selfright.policies.stall import StallSwitch, TiltSwitch
+
+
+class StillHold:
+    """Which envs have stood still over a height for ``delay_steps`` control steps in a row, read
+    from the teacher observation ``x`` (student columns first, then the privileged blocks of
+    ``selfright.env.observations.privileged_columns``): upright (``TiltSwitch``), trunk height
+    above the ground beneath it ≥ ``height_m``, trunk speed < ``speed_mps``, every joint speed
+    < ``joint_speed_rad_s``."""
+
+    def __init__(self, num_envs: int, num_joints: int, delay_steps: int, tilt_deg: float, height_m: float,
+                 speed_mps: float, joint_speed_rad_s: float):
+        if delay_steps < 1:
+            raise ValueError(f"the hold needs a delay of at least one step, got {delay_steps}")
+        cols = privileged_columns(num_joints)
+        self.height_col, self.velocity = cols["height"].start, cols["velocity"]
+        self.qd, self.prev = joint_vel_columns(num_joints), prev_action_columns(num_joints)
+        self.delay, self.height, self.speed = int(delay_steps), float(height_m), float(speed_mps)
+        self.joint_speed = float(joint_speed_rad_s) * JOINT_VEL_SCALE  # as the observation scales it
+        self.tilted = TiltSwitch(tilt_deg)
+        self.count = torch.zeros(num_envs)
+
+    def step(self, x: torch.Tensor) -> torch.Tensor:
+        """(n,) bool: the envs whose labels hold this step."""
+        x = x.detach().cpu()
+        still = (~self.tilted.step(x, torch.arange(x.shape[0])) & (x[:, self.height_col] >= self.height)
+                 & (x[:, self.velocity].norm(dim=1) < self.speed)
+                 & (x[:, self.qd].abs().amax(dim=1) < self.joint_speed))
+        self.count = upright_count(self.count, still)
+        return self.count >= self.delay
+
+    def previous_action(self, x: torch.Tensor) -> torch.Tensor:
+        """(n, J) the action each env took the step before (from its observation)."""
+        return x[:, self.prev]
+
+    def reset(self, done: torch.Tensor) -> None:
+        self.count = self.count.masked_fill(done, 0.0)
 
 
 class StanceTeacher(nn.Module):
@@ -43,11 +85,13 @@ class StanceTeacher(nn.Module):
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
                  ramp_steps: int, target: torch.Tensor | None, weight: float = 1.0, rescue: ActorMLP | None = None,
                  rescue_group: str = "student", rescue_switch: StallSwitch | None = None,
-                 rescue_offset: torch.Tensor | np.ndarray | None = None):
+                 rescue_offset: torch.Tensor | np.ndarray | None = None, hold: StillHold | None = None):
         """``rescue`` (reading ``rescue_group``) labels where ``rescue_switch`` hands over; its
         actions are shifted by ``rescue_offset`` (J,) (its reference pose − the base's, in action
-        units; None when they share one) into the base's units."""
+        units; None when they share one) into the base's units. ``hold``: where it says so, the
+        label is the previous action (applied after the stance blend and the rescue)."""
         super().__init__()
+        self.hold = hold
         if (rescue is None) != (rescue_switch is None):
             raise ValueError("a rescue student needs its hand-over rule, and the rule a rescue student")
         self.rescue, self.rescue_group, self.rescue_switch = rescue, rescue_group, rescue_switch
@@ -75,6 +119,10 @@ class StanceTeacher(nn.Module):
                 rescued = self.rescue_shift.action(self.rescue(self.rescue_shift.obs(obs[self.rescue_group])))
                 labels = torch.where(use[:, None], rescued, labels)
             self.rescue_shift.stepped()
+        if self.hold is not None:
+            held = self.hold.step(x).to(labels.device)
+            if held.any():
+                labels = torch.where(held[:, None], self.hold.previous_action(x).to(labels.device, labels.dtype), labels)
         return labels
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
@@ -83,6 +131,8 @@ class StanceTeacher(nn.Module):
             done = dones.reshape(-1).bool().cpu()
             self.count = self.count.masked_fill(done, 0.0)
             self.rescue_shift.reset(done)
+            if self.hold is not None:
+                self.hold.reset(done)
             if self.rescue_switch is not None:
                 self.rescue_switch.reset(done)
 
