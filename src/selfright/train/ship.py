@@ -143,6 +143,13 @@ def _student_label_words(meta: dict[str, Any]) -> str:
     start = (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
              else ", and it started as a copy of that student")
     exact = " on exact sensors" if _sensor_noise(meta) else ""
+    hold = d.get("hold_after_s", 0.0)
+    if hold:
+        bar = d.get("hold_height_m")
+        exact += (f"; once the robot has stood still for {hold:g} s (upright within {d.get('stance_tilt_deg', 15.0):g}°, "
+                  f"the trunk {'over ' + format(bar, 'g') + ' m' if bar is not None else 'over the goal bar'} above the "
+                  f"ground beneath it, slower than {d.get('hold_speed_mps', 0.1):g} m/s, every joint slower than "
+                  f"{d.get('hold_joint_speed_rad_s', 1.0):g} rad/s) its label is the action it took the step before")
     if not ramp:
         if not meta.get("labels_from_student"):
             return ""
