@@ -76,13 +76,12 @@ def main(a: ReplayArgs) -> None:
             # Slots keep their final state (and sensors) until the next reset: classify it.
             st = env.robot_state(ids)
             is_up = upright(st.roll, st.pitch, cfg.goal).numpy()
-            feet_down = st.feet_contact.sum(dim=-1).numpy()
+            contact = st.feet_contact.numpy().astype(bool)
+            feet_down = contact.sum(axis=1)
             height = st.height.numpy()
             over_feet = env.height_over_feet(ids)
             feet = env.feet_xyz(ids)  # (k, F, 3) foot geom centres
-            f = feet.shape[1]
-            gap = feet[:, :, 2] - env.ground_height(np.repeat(ids, f), feet[:, :, :2].reshape(-1, 2)).reshape(-1, f)
-            contact = st.feet_contact.numpy().astype(bool)
+            gap = feet[:, :, 2] - env.ground_under_feet(ids, feet)
             q = st.q.numpy()
             for i in ids:
                 if is_up[i] and feet_down[i] == 4:

@@ -754,7 +754,7 @@ def test_stance_teacher_holds_the_previous_action_once_still_over_the_bar():
     priv = privileged_columns(12)
     width = priv["factors"].stop
     base = lambda x: torch.zeros(x.shape[0], 12)  # noqa: E731
-    hold = StillHold(4, 12, delay_steps=2, tilt_deg=15.0, height_m=0.32, speed_mps=0.1, joint_speed_rad_s=1.0)
+    hold = StillHold(4, 12, delay_steps=2, height_m=0.32, speed_mps=0.1, joint_speed_rad_s=1.0)
     teacher = StanceTeacher(base, "student", 4, 15.0, 0, 1, None, hold=hold)
     x = torch.zeros(4, width)
     x[:, 2] = -1.0  # upright
@@ -773,7 +773,7 @@ def test_stance_teacher_holds_the_previous_action_once_still_over_the_bar():
     tilted[:, 0:3] = torch.tensor([1.0, 0.0, 0.0])
     assert torch.equal(teacher({"teacher": tilted, "student": tilted[:, :42]}), torch.zeros(4, 12))
     with pytest.raises(ValueError, match="delay"):
-        StillHold(4, 12, 0, 15.0, 0.32, 0.1, 1.0)
+        StillHold(4, 12, 0, 0.32, 0.1, 1.0)
 
 
 def test_hold_labels_need_a_student_to_hold(tmp_path):

@@ -187,12 +187,17 @@ class RecoveryEnv:
         """(k, F, 3) world positions of the feet of slots ``ids`` (their geoms' centres)."""
         return self.sens[ids, self.so.foot_pos].reshape(len(ids), -1, 3)
 
+    def ground_under_feet(self, ids: np.ndarray, feet: np.ndarray | None = None) -> np.ndarray:
+        """(k, F) ground height under each foot of slots ``ids`` (``feet``: their ``feet_xyz``, if
+        already read)."""
+        xy = (self.feet_xyz(ids) if feet is None else feet)[:, :, :2]
+        f = xy.shape[1]
+        return self.ground_height(np.repeat(ids, f), xy.reshape(-1, 2)).reshape(-1, f)
+
     def feet_ground_height(self, ids: np.ndarray) -> np.ndarray:
         """(k,) mean ground height under the feet of slots ``ids``. On rough tiles it differs
         from the ground under the trunk, which is what the goal set reads."""
-        xy = self.feet_xyz(ids)[:, :, :2]
-        f = xy.shape[1]
-        return self.ground_height(np.repeat(ids, f), xy.reshape(-1, 2)).reshape(-1, f).mean(axis=1)
+        return self.ground_under_feet(ids).mean(axis=1)
 
     def height_over_feet(self, ids: np.ndarray) -> np.ndarray:
         """(k,) trunk height above the mean ground under the feet of slots ``ids`` (the goal set

@@ -436,8 +436,8 @@ class TrainingRun:
         hold = None
         if d.hold_after_s > 0:
             bar = d.hold_height_m if d.hold_height_m is not None else goal_height_m(s.bench.goal, robot.leg_length_m)
-            hold = StillHold(s.num_envs, robot.num_joints, max(1, round(d.hold_after_s / dt)), d.stance_tilt_deg, bar,
-                             d.hold_speed_mps, d.hold_joint_speed_rad_s)
+            hold = StillHold(s.num_envs, robot.num_joints, max(1, round(d.hold_after_s / dt)), bar, d.hold_speed_mps,
+                             d.hold_joint_speed_rad_s)
         teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
                                 weight=d.stance_weight, hold=hold, **rescue)

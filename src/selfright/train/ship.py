@@ -142,18 +142,18 @@ def _student_label_words(meta: dict[str, Any]) -> str:
     ramp = d.get("stance_ramp_s", 0.0)
     start = (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
              else ", and it started as a copy of that student")
-    exact = " on exact sensors" if _sensor_noise(meta) else ""
+    labelled = " on exact sensors" if _sensor_noise(meta) else ""
     hold = d.get("hold_after_s", 0.0)
     if hold:
         bar = d.get("hold_height_m")
-        exact += (f"; once the robot has stood still for {hold:g} s (upright within {d.get('stance_tilt_deg', 15.0):g}°, "
-                  f"the trunk {'over ' + format(bar, 'g') + ' m' if bar is not None else 'over the goal bar'} above the "
-                  f"ground beneath it, slower than {d.get('hold_speed_mps', 0.1):g} m/s, every joint slower than "
-                  f"{d.get('hold_joint_speed_rad_s', 1.0):g} rad/s) its label is the action it took the step before")
+        labelled += (f"; once the robot has stood still for {hold:g} s (upright within {d.get('stance_tilt_deg', 15.0):g}°, "
+                     f"the trunk {'over ' + format(bar, 'g') + ' m' if bar is not None else 'over the goal bar'} above the "
+                     f"ground beneath it, slower than {d.get('hold_speed_mps', 0.1):g} m/s, every joint slower than "
+                     f"{d.get('hold_joint_speed_rad_s', 1.0):g} rad/s) its label is the action it took the step before")
     if not ramp:
         if not meta.get("labels_from_student"):
             return ""
-        return f"; its labels are that student's own actions{exact}{start} (**not the seed's recipe**)"
+        return f"; its labels are that student's own actions{labelled}{start} (**not the seed's recipe**)"
     pose = ", ".join(f"{v:g}" for v in d.get("stance_pose", ()))
     weight = d.get("stance_weight", 1.0)
     share = "" if weight == 1.0 else f"{weight:g} of the way "
@@ -162,7 +162,7 @@ def _student_label_words(meta: dict[str, Any]) -> str:
             f"for {d.get('stance_delay_s', 2.0):g} s"
             + (f"; a robot that has lain still, tilted over, for {d.get('stall_s', 0.5):g} s is labelled for "
                f"{d.get('rescue_s', 1.0):g} s by the student `{d['rescue_student']}`" if d.get("rescue_student") else "")
-            + exact + start + " (**not the seed's recipe**)")
+            + labelled + start + " (**not the seed's recipe**)")
 
 
 def _sensor_noise(meta: dict[str, Any]) -> float:

@@ -42,12 +42,12 @@ from selfright.policies.stall import StallSwitch, TiltSwitch
 class StillHold:
     """Which envs have stood still over a height for ``delay_steps`` control steps in a row, read
     from the teacher observation ``x`` (student columns first, then the privileged blocks of
-    ``selfright.env.observations.privileged_columns``): upright (``TiltSwitch``), trunk height
-    above the ground beneath it ≥ ``height_m``, trunk speed < ``speed_mps``, every joint speed
-    < ``joint_speed_rad_s``."""
+    ``selfright.env.observations.privileged_columns``): upright (the caller's mask, ``StanceTeacher``'s
+    tilt rule), trunk height above the ground beneath it ≥ ``height_m``, trunk speed < ``speed_mps``,
+    every joint speed < ``joint_speed_rad_s``."""
 
-    def __init__(self, num_envs: int, num_joints: int, delay_steps: int, tilt_deg: float, height_m: float,
-                 speed_mps: float, joint_speed_rad_s: float):
+    def __init__(self, num_envs: int, num_joints: int, delay_steps: int, height_m: float, speed_mps: float,
+                 joint_speed_rad_s: float):
         if delay_steps < 1:
             raise ValueError(f"the hold needs a delay of at least one step, got {delay_steps}")
         cols = privileged_columns(num_joints)
@@ -55,13 +55,12 @@ class StillHold:
         self.qd, self.prev = joint_vel_columns(num_joints), prev_action_columns(num_joints)
         self.delay, self.height, self.speed = int(delay_steps), float(height_m), float(speed_mps)
         self.joint_speed = float(joint_speed_rad_s) * JOINT_VEL_SCALE  # as the observation scales it
-        self.tilted = TiltSwitch(tilt_deg)
         self.count = torch.zeros(num_envs)
 
-    def step(self, x: torch.Tensor) -> torch.Tensor:
-        """(n,) bool: the envs whose labels hold this step."""
+    def step(self, x: torch.Tensor, upright: torch.Tensor) -> torch.Tensor:
+        """(n,) bool: the envs whose labels hold this step, given which are ``upright`` (n,) bool."""
         x = x.detach().cpu()
-        still = (~self.tilted.step(x, torch.arange(x.shape[0])) & (x[:, self.height_col] >= self.height)
+        still = (upright.cpu() & (x[:, self.height_col] >= self.height)
                  & (x[:, self.velocity].norm(dim=1) < self.speed)
                  & (x[:, self.qd].abs().amax(dim=1) < self.joint_speed))
         self.count = upright_count(self.count, still)
@@ -120,7 +119,7 @@ class StanceTeacher(nn.Module):
                 labels = torch.where(use[:, None], rescued, labels)
             self.rescue_shift.stepped()
         if self.hold is not None:
-            held = self.hold.step(x).to(labels.device)
+            held = self.hold.step(x, up).to(labels.device)
             if held.any():
                 labels = torch.where(held[:, None], self.hold.previous_action(x).to(labels.device, labels.dtype), labels)
         return labels
