@@ -159,6 +159,9 @@ class Args:
     """With ``latch_upright_s``: how slowly the trunk must turn to count as still (rad/s)."""
     latch_release_deg: float = 45.0
     """With ``latch_upright_s``: the tilt past which the policy acts again (deg)."""
+    latch_hold_s: float | None = None
+    """With ``latch_upright_s``: release the latch after this long (s) even if the trunk stays
+    upright, so the policy moves on and may latch again elsewhere; None = hold until it tilts."""
     envelope_speed_rad_s: float | None = None
     """Hold every policy to the DC torque-speed envelope of motors with this no-load speed (rad/s)
     on the ideal servos (``selfright.policies.torque_envelope``), instead of a DC-trained policy's
@@ -198,7 +201,8 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         if cfg.action.reference == "current":
             raise ValueError("--latch-upright-s holds actions, which move the targets under ActionConfig.reference 'current'")
         policy = Latched(policy, max(1, round(a.latch_upright_s / dt)), a.latch_tilt_deg, a.latch_still_rps,
-                         a.latch_release_deg)
+                         a.latch_release_deg,
+                         None if a.latch_hold_s is None else max(1, round(a.latch_hold_s / dt)))
     if a.side_mirror:
         policy = SideMirrored(policy, a.side_mirror, cfg.robot.name)
     policy = Smoothed(policy, a.smooth) if a.smooth > 0 and not a.smooth_last else policy
@@ -298,7 +302,8 @@ def main(a: Args) -> None:
     name += (f" (braked to {a.brake_pose} past {a.brake_tilt_deg:g} deg after upright)"
              if a.brake_pose is not None else "")
     name += (f" (latched after {a.latch_upright_s:g} s upright within {a.latch_tilt_deg:g} deg under "
-             f"{a.latch_still_rps:g} rad/s, released past {a.latch_release_deg:g} deg)" if a.latch_upright_s > 0 else "")
+             f"{a.latch_still_rps:g} rad/s, released past {a.latch_release_deg:g} deg"
+             + (f" or after {a.latch_hold_s:g} s)" if a.latch_hold_s is not None else ")") if a.latch_upright_s > 0 else "")
     name += f" (mirrored unless gravity's body y is {a.side_mirror:+d} at the start)" if a.side_mirror else ""
     name += f" (DC envelope at {a.envelope_speed_rad_s:g} rad/s)" if a.envelope_speed_rad_s is not None else ""
     res = evaluate_grid(policy, policy_name=name, grid=a.grid, episodes=a.episodes, seed=a.seed,

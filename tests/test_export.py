@@ -494,6 +494,12 @@ def test_latched_keeps_the_action_of_the_moment_it_stood_still_until_it_tilts_ov
     assert act(-1.0, 0.1) == 11.0  # a new episode starts unlatched
     with pytest.raises(ValueError, match="tilt_deg"):
         Latched(_Count(), 2, tilt_deg=50.0, release_deg=45.0)
+    q = Latched(_Count(), delay_steps=2, hold_steps=3)  # released after 3 steps held, upright or not
+    q.reset(ids)
+    held = [q.act(obs(-1.0, 0.1), ids, [None])[0, 0].item() for _ in range(8)]
+    assert held == [1.0, 2.0, 2.0, 2.0, 5.0, 6.0, 6.0, 6.0]  # latched at step 2 for 3 steps, again after 2 still ones
+    with pytest.raises(ValueError, match="at least one step"):
+        Latched(_Count(), 2, hold_steps=0)
 
 
 def test_splayed_action_turns_the_hips_out_on_both_sides():

@@ -255,8 +255,9 @@ class Latched(Policy):
     """``inner``, except that a robot that has stood still long enough keeps the joint targets
     it stands on: once a slot's trunk has been upright within ``tilt_deg`` (the IMU's projected
     gravity) and turning slower than ``still_rps`` for ``delay_steps`` control steps in a row, the
-    slot repeats the action it gave then, until the trunk tilts past ``release_deg``; then
-    ``inner`` acts again and the slot must stand still as long once more to latch again.
+    slot repeats the action it gave then, until the trunk tilts past ``release_deg`` (or, with
+    ``hold_steps``, for at most that many steps); then ``inner`` acts again and the slot must
+    stand still as long once more to latch again.
     ``inner`` is still called every step (its observation history stays current). Asks whether
     the rough policies' stand-ups that fall over again are lost to their own fidgeting once up,
     or to the ground (``scripts/policy_variants.py --latch-upright-s``). Sensor-only; needs a
@@ -264,33 +265,39 @@ class Latched(Policy):
     "current"``)."""
 
     def __init__(self, inner: Policy, delay_steps: int, tilt_deg: float = 20.0, still_rps: float = 0.5,
-                 release_deg: float = 45.0):
+                 release_deg: float = 45.0, hold_steps: int | None = None):
         if delay_steps < 1:
             raise ValueError(f"the latch needs a delay of at least one step, got {delay_steps}")
         if not 0.0 < tilt_deg < release_deg < 180.0:
             raise ValueError(f"need 0 < tilt_deg < release_deg < 180, got {tilt_deg:g} and {release_deg:g}")
+        if hold_steps is not None and hold_steps < 1:
+            raise ValueError(f"a latch holds for at least one step, got {hold_steps}")
         self.inner, self.delay, self.still = inner, int(delay_steps), float(still_rps)
+        self.hold = hold_steps
         self._up, self._held = TiltSwitch(tilt_deg), TiltSwitch(release_deg)
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
         self.name = (f"{inner.name} (latched after {delay_steps} steps upright within {tilt_deg:g} deg under "
-                     f"{still_rps:g} rad/s, released past {release_deg:g} deg)")
+                     f"{still_rps:g} rad/s, released past {release_deg:g} deg"
+                     + (f" or after {hold_steps} steps)" if hold_steps is not None else ")"))
         self.latches = 0
         """Latches made since construction (a diagnostic)."""
         self._still = torch.zeros(0)
         self._on = torch.zeros(0, dtype=torch.bool)
+        self._age = torch.zeros(0, dtype=torch.long)
         self._action = torch.zeros(0, 0)
 
     def _grow(self, t: torch.Tensor, width: int) -> None:
         if self._action.shape[1] != width:
             self._action = torch.zeros(self._action.shape[0], width)
         self._still, self._on, self._action = grown(self._still, t), grown(self._on, t, False), grown(self._action, t)
+        self._age = grown(self._age, t)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.inner.reset(ids, seeds)
         t = slot_index(ids)
         self._grow(t, self._action.shape[1])
-        self._still[t], self._on[t] = 0.0, False
+        self._still[t], self._on[t], self._age[t] = 0.0, False, 0
 
     def act(self, obs, ids, contexts):
         a = self.inner.act(obs, ids, contexts)
@@ -300,9 +307,12 @@ class Latched(Policy):
         spin = x[:, 3:6].detach().cpu().float().norm(dim=1)
         still = upright_count(self._still[t], ~self._up.step(x, t) & (spin < self.still))
         on = self._on[t] & ~self._held.step(x, t)
+        if self.hold is not None:
+            on = on & (self._age[t] < self.hold)
         start = ~on & (still >= self.delay)
         self._action[t[start]] = a.detach().cpu().float()[start]
         on = on | start
+        self._age[t] = torch.where(start, torch.ones_like(self._age[t]), torch.where(on, self._age[t] + 1, 0))
         self._still[t], self._on[t] = torch.where(on, torch.zeros_like(still), still), on
         self.latches += int(start.sum())
         held = self._action[t].to(a.device, a.dtype)
