@@ -765,3 +765,30 @@ def test_multiplexer_rule_scores_rules_from_the_members_cells(tmp_path, monkeypa
     lines = out.splitlines()
     best = lines[lines.index("best rules (incline if slope ≥ T and roughness level < R):") + 1]
     assert best == "  T = 15°, R = 1: 85.0 %"  # incline on the smooth slope only
+
+
+def test_select_checkpoints_expands_runs_scores_each_once_and_ranks(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    run = tmp_path / "runs" / "cand"
+    run.mkdir(parents=True)
+    src = Path("runs/incline_h25_stance03")
+    shutil.copy(src / "train_meta.json", run / "train_meta.json")
+    for k in (0, 1, 2, 3):
+        shutil.copy(src / "model_399.pt", run / f"model_{k}.pt")
+    shutil.copy(src / "model_399.pt", run / "model_best.pt")
+    mod = runpy.run_path(str(SCRIPTS / "select_checkpoints.py"))
+    assert [p.name for p in mod["expand"]((run,), every=2)] == ["model_1.pt", "model_3.pt"]  # every 2nd and the last
+    assert [p.name for p in mod["expand"]((run, run / "model_3.pt"), min_iteration=3)] == ["model_3.pt"]
+    with pytest.raises(ValueError, match="numbered"):
+        mod["expand"]((run / "model_best.pt",))
+    out = tmp_path / "sel"
+    args = [str(run / "model_2.pt"), str(run / "model_3.pt"), "--grid", "incline", "--seeds", "4",
+            "--episodes", "1", "--threads", "1", "--out", str(out)]
+    run_script("select_checkpoints.py", args, monkeypatch)
+    first = capsys.readouterr().out
+    assert "ranked on incline, seeds 4" in first and first.count("/    1  ") == 2
+    summary = out / "cand_3" / "s4" / "summary.json"
+    stamp = summary.stat().st_mtime_ns
+    run_script("select_checkpoints.py", args, monkeypatch)  # a second call reads the results it left
+    assert summary.stat().st_mtime_ns == stamp and capsys.readouterr().out == first
