@@ -696,7 +696,7 @@ def test_lineage_script_of_the_shipped_incline_reads_its_own_checkpoints_and_say
     run_script("lineage.py", ["--policy", "incline", "--script"], monkeypatch)
     out = capsys.readouterr().out
     steps = [line.split()[1:3] for line in out.splitlines() if line.startswith("step ")]
-    assert steps[-1] == ["runs/retrain/incline_env395_stance03", "400"]
+    assert steps[-1] == ["runs/retrain/incline_h25_sel31_479_stance03", "340"]  # iteration 339, the shipped one
     assert "--teacher runs/retrain/incline_dc_teacher_e512/model_395.pt" in out
     first = next(line for line in out.splitlines() if line.startswith("step runs/retrain/incline_scratch_narrow "))
     assert first.endswith("--joint-stop-timeconst-s 0.02")  # trained before the hard stops, and replayed so
