@@ -772,11 +772,11 @@ def test_select_checkpoints_expands_runs_scores_each_once_and_ranks(tmp_path, mo
 
     run = tmp_path / "runs" / "cand"
     run.mkdir(parents=True)
-    src = Path("runs/incline_h25_stance03")
+    src = Path("runs/incline_h25_sel31_479_stance03")  # committed: the shipped incline's run
     shutil.copy(src / "train_meta.json", run / "train_meta.json")
     for k in (0, 1, 2, 3):
-        shutil.copy(src / "model_399.pt", run / f"model_{k}.pt")
-    shutil.copy(src / "model_399.pt", run / "model_best.pt")
+        shutil.copy(src / "model_339.pt", run / f"model_{k}.pt")
+    shutil.copy(src / "model_339.pt", run / "model_best.pt")
     mod = runpy.run_path(str(SCRIPTS / "select_checkpoints.py"))
     assert [p.name for p in mod["expand"]((run,), every=2)] == ["model_1.pt", "model_3.pt"]  # every 2nd and the last
     assert [p.name for p in mod["expand"]((run, run / "model_3.pt"), min_iteration=3)] == ["model_3.pt"]
