@@ -19,7 +19,6 @@ folder that already holds a summary is read, not simulated again (rerun to resum
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -29,6 +28,7 @@ from selfright.config import BenchmarkConfig
 from selfright.evaluate.metrics import wilson_interval
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.registry import make_policy
+from selfright.train.checkpoints import CHECKPOINT_RE, list_checkpoints
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ class Args:
 
 
 def _iteration(path: Path) -> int:
-    m = re.fullmatch(r"model_(\d+)\.pt", path.name)
+    m = CHECKPOINT_RE.fullmatch(path.name)
     if m is None:
         raise ValueError(f"{path} is not a numbered training checkpoint (model_K.pt)")
     return int(m.group(1))
@@ -64,8 +64,7 @@ def expand(candidates: tuple[Path, ...], every: int = 1, min_iteration: int = 1)
     out: list[Path] = []
     for c in candidates:
         if c.is_dir():
-            found = sorted((p for p in c.glob("model_*.pt") if re.fullmatch(r"model_\d+\.pt", p.name)), key=_iteration)
-            found = [p for p in found if _iteration(p) >= max(1, min_iteration)]
+            found = [p for k, p in list_checkpoints(c) if k >= max(1, min_iteration)]
             if not found:
                 raise ValueError(f"{c} holds no numbered checkpoint at or after iteration {min_iteration}")
             out += [p for i, p in enumerate(found) if i % every == 0 or i == len(found) - 1]

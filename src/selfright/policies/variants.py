@@ -283,21 +283,20 @@ class Latched(Policy):
         self.latches = 0
         """Latches made since construction (a diagnostic)."""
         self._still = torch.zeros(0)
-        self._on = torch.zeros(0, dtype=torch.bool)
         self._age = torch.zeros(0, dtype=torch.long)
+        """Steps each slot has held its latched action (0 = not latched)."""
         self._action = torch.zeros(0, 0)
 
     def _grow(self, t: torch.Tensor, width: int) -> None:
         if self._action.shape[1] != width:
             self._action = torch.zeros(self._action.shape[0], width)
-        self._still, self._on, self._action = grown(self._still, t), grown(self._on, t, False), grown(self._action, t)
-        self._age = grown(self._age, t)
+        self._still, self._age, self._action = grown(self._still, t), grown(self._age, t), grown(self._action, t)
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         self.inner.reset(ids, seeds)
         t = slot_index(ids)
         self._grow(t, self._action.shape[1])
-        self._still[t], self._on[t], self._age[t] = 0.0, False, 0
+        self._still[t], self._age[t] = 0.0, 0
 
     def act(self, obs, ids, contexts):
         a = self.inner.act(obs, ids, contexts)
@@ -306,14 +305,15 @@ class Latched(Policy):
         x = obs["student"]
         spin = x[:, 3:6].detach().cpu().float().norm(dim=1)
         still = upright_count(self._still[t], ~self._up.step(x, t) & (spin < self.still))
-        on = self._on[t] & ~self._held.step(x, t)
+        age = self._age[t]
+        on = (age > 0) & ~self._held.step(x, t)
         if self.hold is not None:
-            on = on & (self._age[t] < self.hold)
+            on = on & (age < self.hold)
         start = ~on & (still >= self.delay)
         self._action[t[start]] = a.detach().cpu().float()[start]
         on = on | start
-        self._age[t] = torch.where(start, torch.ones_like(self._age[t]), torch.where(on, self._age[t] + 1, 0))
-        self._still[t], self._on[t] = torch.where(on, torch.zeros_like(still), still), on
+        self._age[t] = torch.where(start, torch.ones_like(age), torch.where(on, age + 1, 0))
+        self._still[t] = torch.where(on, torch.zeros_like(still), still)
         self.latches += int(start.sum())
         held = self._action[t].to(a.device, a.dtype)
         return torch.where(on[:, None].to(a.device), held, a)
