@@ -48,7 +48,7 @@ from selfright.config import BenchmarkConfig
 from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
-from selfright.policies.pose_blend import splayed_action, stance_action
+from selfright.policies.pose_blend import lean_gains, splayed_action, stance_action
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.sensor_noise import NoisySensors
 from selfright.policies.stall import ScanSwitch, hand_over_rule
@@ -130,6 +130,12 @@ class Args:
     pose_upright_joints: tuple[str, ...] = ("hip", "thigh", "calf")
     """With ``pose_upright_s``: which joints of each leg blend (``hip``, ``thigh``, ``calf``); the
     others keep the policy's action."""
+    pose_upright_lean: tuple[float, float] = (0.0, 0.0)
+    """With ``pose_upright_s``: lean the stance's legs towards gravity, read from the IMU each
+    step (``selfright.policies.pose_blend.gravity_lean``): the hips turn by the first gain times
+    the trunk's roll, the thighs by the second times its pitch. ``0 1`` puts the feet under the
+    hips in the world fore and aft (on the 20° slope a held stance then stands facing up or down
+    it, where a square one tips: ``python scripts/slope_stance.py --lean 0 1``); 0 0 = a fixed stance."""
     pose_upright: tuple[float, float, float] = (0.0, 0.46, -0.92)
     """With ``pose_upright_s``: the stance's hip, thigh and knee angles (rad), the same on
     every leg. The default has the knee at its limit and the foot under the hip: 0.38 m from
@@ -191,8 +197,9 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
             raise ValueError(f"--pose-upright-joints {a.pose_upright_joints} names none of hip, thigh, calf")
         policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)),
                              cols, stance_action(robot, cfg.action, a.pose_upright)[cols],
-                             round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}",
-                             weight=a.pose_upright_weight)
+                             round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}"
+                             + (f" leaning {a.pose_upright_lean}" if any(a.pose_upright_lean) else ""),
+                             weight=a.pose_upright_weight, lean=lean_gains(robot, cfg.action, a.pose_upright_lean, cols))
     if a.brake_pose is not None:
         policy = Braked(policy, splayed_action(robot, cfg.action, *a.brake_pose),
                         tilt_deg=a.brake_tilt_deg, spin_rps=a.brake_spin_rps, release_rps=a.brake_release_rps,
@@ -297,7 +304,8 @@ def main(a: Args) -> None:
     name += (f" (hips to 0 over {a.zero_hips_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg)"
              if a.zero_hips_upright_s > 0 else "")
     name += f" ({a.pose_upright_weight:g} of the way)" if a.pose_upright_weight != 1.0 else ""
-    name += (f" (stance {a.pose_upright} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
+    name += (f" (stance {a.pose_upright}" + (f" leaning {a.pose_upright_lean}" if any(a.pose_upright_lean) else "")
+             + f" over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
     name += (f" (braked to {a.brake_pose} past {a.brake_tilt_deg:g} deg after upright)"
              if a.brake_pose is not None else "")

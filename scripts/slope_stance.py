@@ -15,6 +15,15 @@ to keep adjusting, and the fixed-stance recipes that helped on rough ground
     python scripts/slope_stance.py                       # 0°, 10°, 15°, 20°
     python scripts/slope_stance.py --slopes-deg 20 --friction 0.6
     python scripts/slope_stance.py --slopes-deg 10 20 --kp 100     # stiffer servos (not the A1's)
+    python scripts/slope_stance.py --slopes-deg 20 --lean 0 1      # legs leaned to gravity, each step
+
+With ``--lean R P`` each pose is also held with its legs leaned towards gravity every control
+step (``selfright.policies.pose_blend.gravity_lean``: the hips turned by R times the trunk's
+roll, the thighs by P times its pitch, read from the trunk's orientation as the IMU gives it).
+``--lean 0 1`` puts the feet under the hips in the world fore and aft, and that stance stands
+facing up or down the 20° slope (tilt 19–20°, square to it) where the fixed one tips; across
+the slope it still tips, and a roll lean feeds itself back (turning the hips with the feet
+planted rolls the trunk further), docs/training.md.
 """
 
 from __future__ import annotations
@@ -24,10 +33,12 @@ from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
+import torch
 import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig, RewardConfig
 from selfright.env.world import build_world
+from selfright.policies.pose_blend import gravity_lean
 from selfright.robots import get_robot
 from selfright.robots.kinematics import KinematicHeight
 from selfright.terrain.grid import grid_cells
@@ -44,15 +55,19 @@ class Args:
     side is the mirror image)."""
     friction: float = 1.0
     hold_s: float = 4.0
+    lean: tuple[float, float] = (0.0, 0.0)
+    """Also hold each pose leaned towards gravity: gains on the trunk's roll (hips) and pitch
+    (thighs); 0 0 = fixed poses only."""
     kp: float | None = None
     """PD stiffness of every joint (N·m/rad); ``None`` = the benchmark's (``RobotConfig.kp``, 50)."""
 
 
 def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, height_m: float,
-                   hold_s: float) -> float:
+                   hold_s: float, lean: np.ndarray | None = None, control_dt_s: float = 0.02) -> float:
     """Tilt of the trunk's up axis from world z (deg) after holding ``pose`` for ``hold_s``,
     set down square to a slope rising along +x at ``heading_rad``, the trunk ``height_m``
-    above it along its normal."""
+    above it along its normal. ``lean`` (2, J), in rad per rad: every ``control_dt_s`` the
+    targets are ``pose`` plus ``gravity_lean`` of the trunk's projected gravity."""
     d = mujoco.MjData(model)
     q_slope, q_head, quat = np.zeros(4), np.zeros(4), np.zeros(4)
     mujoco.mju_axisAngle2Quat(q_slope, np.array([0.0, 1.0, 0.0]), -slope_rad)  # nose up along +x
@@ -63,7 +78,12 @@ def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, 
     d.qpos[3:7] = quat
     d.qpos[7:] = pose
     d.ctrl[:] = pose
-    for _ in range(int(round(hold_s / model.opt.timestep))):
+    every, rot = max(1, int(round(control_dt_s / model.opt.timestep))), np.zeros(9)
+    for i in range(int(round(hold_s / model.opt.timestep))):
+        if lean is not None and i % every == 0:
+            mujoco.mju_quat2Mat(rot, d.qpos[3:7])
+            down = torch.as_tensor(rot.reshape(3, 3).T @ np.array([0.0, 0.0, -1.0]))[None]
+            d.ctrl[:] = pose + gravity_lean(down, torch.as_tensor(lean)).double().numpy()[0]
         mujoco.mj_step(model, d)
     x, y = d.qpos[4], d.qpos[5]
     return math.degrees(math.acos(float(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))))
@@ -80,6 +100,9 @@ def main(a: Args) -> None:
     poses = {"tall stance": np.tile(np.asarray(RewardConfig().stance_pose), legs), "A1 stand": robot.stand_pose}
     # Trunk over the feet's bottoms in each pose (the robot's own forward kinematics), plus the clearance.
     level = KinematicHeight(robot).level(np.stack(list(poses.values())))
+    parts = [n.split("_")[1] for n in robot.joint_names]
+    lean = (np.array([[a.lean[0] * (p == "hip") for p in parts], [a.lean[1] * (p == "thigh") for p in parts]])
+            if any(a.lean) else None)
     heights = {name: float(h) + CLEARANCE_M for name, h in zip(poses, level, strict=True)}
     print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}, Kp {cfg.robot.kp:g}; "
           f"headings {', '.join(f'{h:g}' for h in a.headings_deg)}° (0 = facing uphill)")
@@ -87,9 +110,11 @@ def main(a: Args) -> None:
         cell = replace(base, slope_pct=100.0 * math.tan(math.radians(deg)))
         model = build_world(cell, cfg, ContextConfig(friction=a.friction), 0, robot=robot).model
         for name, pose in poses.items():
-            tilts = [final_tilt_deg(model, math.radians(deg), math.radians(h), pose, heights[name], a.hold_s)
-                     for h in a.headings_deg]
-            print(f"  slope {deg:4.1f}°  {name:12s} " + "  ".join(f"{t:5.0f}" for t in tilts))
+            for leaned in (None,) if lean is None else (None, lean):
+                tilts = [final_tilt_deg(model, math.radians(deg), math.radians(h), pose, heights[name], a.hold_s,
+                                        leaned, cfg.sim.control_dt_s) for h in a.headings_deg]
+                label = name + (f", leaning {a.lean[0]:g} {a.lean[1]:g}" if leaned is not None else "")
+                print(f"  slope {deg:4.1f}°  {label:26s} " + "  ".join(f"{t:5.0f}" for t in tilts))
 
 
 if __name__ == "__main__":

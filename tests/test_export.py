@@ -435,6 +435,45 @@ def test_pose_upright_ramps_only_its_columns_of_upright_slots():
             PoseUpright(_Ones(), 15.0, 2, [1, 2], target=[3.0, -1.0], weight=bad)
 
 
+def test_gravity_lean_turns_the_legs_towards_gravity_and_pose_upright_follows_it():
+    """The stance leans with the trunk: nose up (gravity towards the trunk's −x) turns the
+    thighs forward by the pitch (feet back, downhill); rolled (gravity towards +y) turns the
+    hips by the roll; upright, nothing."""
+    import math
+
+    from selfright.config import ActionConfig
+    from selfright.policies.pose_blend import gravity_lean, lean_gains
+    from selfright.policies.variants import PoseUpright
+    from selfright.robots import get_robot
+
+    robot, action = get_robot("a1"), ActionConfig()
+    assert lean_gains(robot, action, (0.0, 0.0)) is None
+    gains = torch.as_tensor(lean_gains(robot, action, (0.5, 1.0)))
+    assert gains.shape == (2, 12)
+    a = math.radians(20)
+    g = torch.tensor([[0.0, 0.0, -1.0], [-math.sin(a), 0.0, -math.cos(a)], [0.0, math.sin(a), -math.cos(a)]])
+    out = gravity_lean(g, gains) * action.scale_rad  # back in rad
+    torch.testing.assert_close(out[0], torch.zeros(12))
+    torch.testing.assert_close(out[1, 1::3], torch.full((4,), a))  # thighs by the pitch, hips and knees still
+    assert out[1, 0::3].abs().max() < 1e-6 and out[1, 2::3].abs().max() < 1e-6
+    torch.testing.assert_close(out[2, 0::3], torch.full((4,), 0.5 * a))  # hips by half the roll
+    assert out[2, 1::3].abs().max() < 1e-6
+
+    class _Zeros(Policy):
+        def act(self, obs, ids, contexts):
+            return torch.zeros(len(ids), 12)
+
+    x = torch.zeros(1, 42)
+    x[0, :3] = g[1]  # nose up 20°: upright within 35°
+    p = PoseUpright(_Zeros(), 35.0, 1, list(range(12)), target=torch.zeros(12), weight=0.5,
+                    lean=lean_gains(robot, action, (0.0, 1.0)))
+    p.reset(np.array([0]))
+    got = p.act({"student": x}, np.array([0]), [None])[0] * action.scale_rad
+    torch.testing.assert_close(got[1::3], torch.full((4,), 0.5 * a))  # half-way to the leaned stance
+    with pytest.raises(ValueError, match="lean gains"):
+        PoseUpright(_Zeros(), 35.0, 1, [0, 1], target=[0.0, 0.0], lean=np.zeros((2, 3)))
+
+
 def test_braked_holds_its_pose_from_a_re_fall_until_the_trunk_is_still():
     from selfright.policies.variants import Braked
 

@@ -743,6 +743,29 @@ def test_stance_teacher_hands_a_tilted_stall_to_the_rescue_student():
         StanceTeacher(base, "student", 3, 35.0, 100, 1, torch.zeros(12), rescue=rescue)
 
 
+def test_stance_teacher_leans_its_stance_to_gravity():
+    """--train.distillation.stance-lean: the stance the labels blend to has its thighs turned by
+    the trunk's pitch (read from the projected gravity each step); without a stance it is refused."""
+    import math
+
+    from selfright.train.stance_teacher import StanceTeacher
+
+    base = lambda x: torch.zeros(x.shape[0], 12)  # noqa: E731
+    lean = np.zeros((2, 12))
+    lean[1, 1::3] = 2.0  # action units per rad of pitch on the thighs
+    teacher = StanceTeacher(base, "student", 2, 35.0, 0, 1, torch.zeros(12), lean=lean)
+    a = math.radians(20)
+    x = torch.zeros(2, 42)
+    x[0, :3] = torch.tensor([0.0, 0.0, -1.0])
+    x[1, :3] = torch.tensor([-math.sin(a), 0.0, -math.cos(a)])  # nose up 20°, as facing up the incline
+    labels = teacher({"teacher": x, "student": x})
+    torch.testing.assert_close(labels[0], torch.zeros(12))
+    torch.testing.assert_close(labels[1, 1::3], torch.full((4,), 2.0 * a))
+    assert labels[1, 0::3].abs().max() == 0.0 and labels[1, 2::3].abs().max() == 0.0
+    with pytest.raises(ValueError, match="lean needs a stance"):
+        StanceTeacher(base, "student", 2, 35.0, 0, 1, None, lean=lean)
+
+
 def test_stance_teacher_holds_the_previous_action_once_still_over_the_bar():
     """--train.distillation.hold-after-s: a robot upright, over the height, with its trunk and
     joints still for the delay is labelled with the action it took the step before; one that

@@ -52,6 +52,14 @@ def test_slope_stance_stands_on_the_plane_and_tips_facing_up_the_incline(monkeyp
     assert min(tilts[("20.0°", "tall", "stance")] + tilts[("20.0°", "A1", "stand")]) > 60.0  # tipped over
 
 
+def test_slope_stance_leaning_to_gravity_stands_facing_up_and_down_the_incline(monkeypatch, capsys):
+    run_script("slope_stance.py", ["--slopes-deg", "20", "--headings-deg", "0", "180", "--lean", "0", "1"], monkeypatch)
+    rows = {" ".join(line.split()[2:-2]): [float(v) for v in line.split()[-2:]]
+            for line in capsys.readouterr().out.splitlines() if line.strip().startswith("slope")}
+    assert min(rows["tall stance"]) > 60.0  # square to the slope, it tips
+    assert max(rows["tall stance, leaning 0 1"]) < 25.0  # feet under the hips: stands, square to the 20° slope
+
+
 def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
     run_script("failure_modes.py", ["--policy", "zero", "--grid", "flat", "--episodes", "4"], monkeypatch)
     assert sum(failure_classes(capsys.readouterr().out)) == 4

@@ -359,6 +359,13 @@ class DistillationConfig:
     """With ``stance_ramp_s``: how far the labels blend, in (0, 1]: 1 = all the way to
     ``stance_pose``; 0.3 = the base student's action moved 30 % of the way there, its own
     balance corrections kept (on the 20° incline the full stance tips over; docs/training.md)."""
+    stance_lean: tuple[float, float] = (0.0, 0.0)
+    """With ``stance_ramp_s``: lean the stance's legs towards gravity, read from the IMU each
+    step (``selfright.policies.pose_blend.gravity_lean``): the hips turn by the first gain times
+    the trunk's roll, the thighs by the second times its pitch. ``0 1`` puts the feet under the
+    hips in the world fore and aft: held on the 20° slope, that stance stands facing up or down
+    it, where the square one tips (``python scripts/slope_stance.py --lean 0 1``). 0 0 = the
+    fixed ``stance_pose``. **Not** the seed's recipe."""
     hold_after_s: float = 0.0
     """> 0 with a student ``--teacher``: once the robot has stood still over the goal bar for this
     long (s) — trunk upright within ``stance_tilt_deg``, its height above the ground beneath it at

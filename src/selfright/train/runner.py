@@ -37,7 +37,7 @@ from selfright.evaluate.results import factor_flags
 from selfright.env.goal import goal_height_m
 from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
-from selfright.policies.pose_blend import stance_action
+from selfright.policies.pose_blend import lean_gains, stance_action
 from selfright.policies.reference import reference_offset
 from selfright.policies.stall import ScanSwitch, StallSwitch, hand_over_rule
 from selfright.train.checkpoints import (
@@ -440,7 +440,9 @@ class TrainingRun:
                              d.hold_joint_speed_rad_s)
         teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
-                                weight=d.stance_weight, hold=hold, **rescue)
+                                weight=d.stance_weight, hold=hold,
+                                lean=lean_gains(robot, s.bench.action, d.stance_lean) if d.stance_ramp_s > 0 else None,
+                                **rescue)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:

@@ -34,7 +34,7 @@ from torch import nn
 
 from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns, privileged_columns
 from selfright.policies.actor import ActorMLP
-from selfright.policies.pose_blend import blend_weight, pose_blend, upright_count
+from selfright.policies.pose_blend import blend_weight, gravity_lean, pose_blend, upright_count
 from selfright.policies.reference import ReferenceShift
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
@@ -84,11 +84,14 @@ class StanceTeacher(nn.Module):
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
                  ramp_steps: int, target: torch.Tensor | None, weight: float = 1.0, rescue: ActorMLP | None = None,
                  rescue_group: str = "student", rescue_switch: StallSwitch | None = None,
-                 rescue_offset: torch.Tensor | np.ndarray | None = None, hold: StillHold | None = None):
+                 rescue_offset: torch.Tensor | np.ndarray | None = None, hold: StillHold | None = None,
+                 lean: np.ndarray | None = None):
         """``rescue`` (reading ``rescue_group``) labels where ``rescue_switch`` hands over; its
         actions are shifted by ``rescue_offset`` (J,) (its reference pose − the base's, in action
         units; None when they share one) into the base's units. ``hold``: where it says so, the
-        label is the previous action (applied after the stance blend and the rescue)."""
+        label is the previous action (applied after the stance blend and the rescue). ``lean``
+        (2, J), with a ``target``: the stance's legs lean towards gravity each step
+        (``gravity_lean`` on the trunk's projected gravity), the feet under the hips in the world."""
         super().__init__()
         self.hold = hold
         if (rescue is None) != (rescue_switch is None):
@@ -101,6 +104,9 @@ class StanceTeacher(nn.Module):
         self.tilted = TiltSwitch(tilt_deg)
         self.delay, self.ramp, self.weight = int(delay_steps), int(ramp_steps), blend_weight(weight)
         self.register_buffer("target", None if target is None else torch.as_tensor(target, dtype=torch.float32))
+        if lean is not None and target is None:
+            raise ValueError("a stance lean needs a stance target")
+        self.register_buffer("lean", None if lean is None else torch.as_tensor(lean, dtype=torch.float32))
         self.count = torch.zeros(num_envs)
         """Control steps each env's trunk has been upright (CPU)."""
 
@@ -111,7 +117,8 @@ class StanceTeacher(nn.Module):
         self.count = upright_count(self.count, up)
         labels = self.base(obs[self.group])
         if self.target is not None:
-            labels = pose_blend(labels, self.count, self.delay, self.ramp, self.target, weight=self.weight)
+            target = self.target if self.lean is None else self.target + gravity_lean(x[:, :3], self.lean)
+            labels = pose_blend(labels, self.count, self.delay, self.ramp, target, weight=self.weight)
         if self.rescue is not None:
             use = self.rescue_switch.step(x, torch.arange(x.shape[0])).to(labels.device)
             if use.any():
