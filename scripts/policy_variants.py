@@ -48,7 +48,8 @@ from selfright.config import BenchmarkConfig
 from selfright.env.goal import goal_height_m
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
-from selfright.policies.pose_blend import lean_gains, splayed_action, stance_action
+from selfright.policies.level_stance import LevelStance, LevelStanceTarget
+from selfright.policies.pose_blend import LeanedPose, lean_gains, splayed_action, stance_action
 from selfright.policies.registry import _make_policy, check_action_mapping, make_policy
 from selfright.policies.sensor_noise import NoisySensors
 from selfright.policies.stall import ScanSwitch, hand_over_rule
@@ -136,6 +137,11 @@ class Args:
     the trunk's roll, the thighs by the second times its pitch. ``0 1`` puts the feet under the
     hips in the world fore and aft (on the 20° slope a held stance then stands facing up or down
     it, where a square one tips: ``python scripts/slope_stance.py --lean 0 1``); 0 0 = a fixed stance."""
+    pose_upright_level: bool = False
+    """With ``pose_upright_s``: blend to the level stance ``pose_upright_level_law`` (leg
+    lengths and lean from the IMU's gravity each step; ``selfright.policies.level_stance``)
+    instead of ``pose_upright``."""
+    pose_upright_level_law: LevelStance = LevelStance()
     pose_upright: tuple[float, float, float] = (0.0, 0.46, -0.92)
     """With ``pose_upright_s``: the stance's hip, thigh and knee angles (rad), the same on
     every leg. The default has the knee at its limit and the foot under the hip: 0.38 m from
@@ -180,6 +186,23 @@ class Args:
     low-pass the composite's actions."""
 
 
+def stance_target(a: Args, robot, cfg: BenchmarkConfig, cols: list[int]):
+    """The stance ``--pose-upright-s`` blends to: fixed, leaning or level."""
+    if a.pose_upright_level:
+        return LevelStanceTarget(a.pose_upright_level_law, robot, cfg.action, cols)
+    fixed = stance_action(robot, cfg.action, a.pose_upright)[cols]
+    gains = lean_gains(robot, cfg.action, a.pose_upright_lean, cols)
+    return fixed if gains is None else LeanedPose(fixed, gains)
+
+
+def stance_label(a: Args) -> str:
+    if a.pose_upright_level:
+        law = a.pose_upright_level_law
+        return (f"level stance (leg {law.leg_m:g} m, roll level {law.roll_level:g}, pitch lean {law.pitch_lean:g}, "
+                f"pitch level {law.pitch_level:g})")
+    return f"stance {a.pose_upright}" + (f" leaning {a.pose_upright_lean}" if any(a.pose_upright_lean) else "")
+
+
 def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
     if a.smooth_last and not (a.smooth > 0 and (a.tilt_deg > 0 or a.fallback_s > 0)):
         raise ValueError("--smooth-last takes --smooth and a composite (--tilt-deg or --fallback-s)")
@@ -195,11 +218,9 @@ def make_variant(a: Args, cfg: BenchmarkConfig) -> Policy:
         cols = [i for i, n in enumerate(robot.joint_names) if n.split("_")[1] in a.pose_upright_joints]
         if not cols:
             raise ValueError(f"--pose-upright-joints {a.pose_upright_joints} names none of hip, thigh, calf")
-        policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)),
-                             cols, stance_action(robot, cfg.action, a.pose_upright)[cols],
-                             round(a.pose_upright_delay_s / dt), label=f"stance {a.pose_upright}"
-                             + (f" leaning {a.pose_upright_lean}" if any(a.pose_upright_lean) else ""),
-                             weight=a.pose_upright_weight, lean=lean_gains(robot, cfg.action, a.pose_upright_lean, cols))
+        policy = PoseUpright(policy, a.zero_hips_tilt_deg, max(1, round(a.pose_upright_s / dt)), cols,
+                             stance_target(a, robot, cfg, cols), round(a.pose_upright_delay_s / dt),
+                             label=stance_label(a), weight=a.pose_upright_weight)
     if a.brake_pose is not None:
         policy = Braked(policy, splayed_action(robot, cfg.action, *a.brake_pose),
                         tilt_deg=a.brake_tilt_deg, spin_rps=a.brake_spin_rps, release_rps=a.brake_release_rps,
@@ -304,8 +325,7 @@ def main(a: Args) -> None:
     name += (f" (hips to 0 over {a.zero_hips_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg)"
              if a.zero_hips_upright_s > 0 else "")
     name += f" ({a.pose_upright_weight:g} of the way)" if a.pose_upright_weight != 1.0 else ""
-    name += (f" (stance {a.pose_upright}" + (f" leaning {a.pose_upright_lean}" if any(a.pose_upright_lean) else "")
-             + f" over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
+    name += (f" ({stance_label(a)} over {a.pose_upright_s:g} s once upright within {a.zero_hips_tilt_deg:g} deg"
              f" for {a.pose_upright_delay_s:g} s)" if a.pose_upright_s > 0 else "")
     name += (f" (braked to {a.brake_pose} past {a.brake_tilt_deg:g} deg after upright)"
              if a.brake_pose is not None else "")

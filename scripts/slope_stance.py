@@ -29,6 +29,7 @@ planted rolls the trunk further), docs/training.md.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import mujoco
@@ -38,6 +39,7 @@ import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig, RewardConfig
 from selfright.env.world import build_world
+from selfright.policies.level_stance import LevelStance
 from selfright.policies.pose_blend import gravity_lean
 from selfright.robots import get_robot
 from selfright.robots.kinematics import KinematicHeight
@@ -58,16 +60,24 @@ class Args:
     lean: tuple[float, float] = (0.0, 0.0)
     """Also hold each pose leaned towards gravity: gains on the trunk's roll (hips) and pitch
     (thighs); 0 0 = fixed poses only."""
+    level: bool = False
+    """Also hold the level stance ``level_law`` (``selfright.policies.level_stance``)."""
+    level_law: LevelStance = LevelStance()
     kp: float | None = None
     """PD stiffness of every joint (N·m/rad); ``None`` = the benchmark's (``RobotConfig.kp``, 50)."""
 
 
-def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, height_m: float,
-                   hold_s: float, lean: np.ndarray | None = None, control_dt_s: float = 0.02) -> float:
-    """Tilt of the trunk's up axis from world z (deg) after holding ``pose`` for ``hold_s``,
-    set down square to a slope rising along +x at ``heading_rad``, the trunk ``height_m``
-    above it along its normal. ``lean`` (2, J), in rad per rad: every ``control_dt_s`` the
-    targets are ``pose`` plus ``gravity_lean`` of the trunk's projected gravity."""
+Law = Callable[[torch.Tensor], np.ndarray]
+"""Joint targets (J,) for the trunk's projected gravity (1, 3), set every control step."""
+
+
+def final_state(model: mujoco.MjModel, slope_rad: float, heading_rad: float, pose: np.ndarray, height_m: float,
+                hold_s: float, law: Law | None = None, control_dt_s: float = 0.02) -> tuple[float, float]:
+    """Tilt of the trunk's up axis from world z (deg), and the trunk's height over the slope
+    beneath it (m), after holding ``pose`` for ``hold_s``, set down square to a slope rising
+    along +x (through the origin) at ``heading_rad``, the trunk ``height_m`` above it along its
+    normal. ``law``: every ``control_dt_s`` the targets are ``law`` of the trunk's projected
+    gravity instead of ``pose``."""
     d = mujoco.MjData(model)
     q_slope, q_head, quat = np.zeros(4), np.zeros(4), np.zeros(4)
     mujoco.mju_axisAngle2Quat(q_slope, np.array([0.0, 1.0, 0.0]), -slope_rad)  # nose up along +x
@@ -80,13 +90,13 @@ def final_tilt_deg(model: mujoco.MjModel, slope_rad: float, heading_rad: float, 
     d.ctrl[:] = pose
     every, rot = max(1, int(round(control_dt_s / model.opt.timestep))), np.zeros(9)
     for i in range(int(round(hold_s / model.opt.timestep))):
-        if lean is not None and i % every == 0:
+        if law is not None and i % every == 0:
             mujoco.mju_quat2Mat(rot, d.qpos[3:7])
-            down = torch.as_tensor(rot.reshape(3, 3).T @ np.array([0.0, 0.0, -1.0]))[None]
-            d.ctrl[:] = pose + gravity_lean(down, torch.as_tensor(lean)).double().numpy()[0]
+            d.ctrl[:] = law(torch.as_tensor(rot.reshape(3, 3).T @ np.array([0.0, 0.0, -1.0]))[None])
         mujoco.mj_step(model, d)
     x, y = d.qpos[4], d.qpos[5]
-    return math.degrees(math.acos(float(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))))
+    tilt = math.degrees(math.acos(float(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))))
+    return tilt, float(d.qpos[2] - d.qpos[0] * math.tan(slope_rad))
 
 
 def main(a: Args) -> None:
@@ -98,23 +108,31 @@ def main(a: Args) -> None:
     legs = len(robot.joint_names) // 3
     # The stance of --train.reward.stance / --train.distillation.stance-pose, and the A1's stand pose.
     poses = {"tall stance": np.tile(np.asarray(RewardConfig().stance_pose), legs), "A1 stand": robot.stand_pose}
+    laws: dict[str, tuple[np.ndarray, Law | None]] = {name: (pose, None) for name, pose in poses.items()}
+    if any(a.lean):
+        parts = [n.split("_")[1] for n in robot.joint_names]
+        gains = torch.as_tensor(np.array([[a.lean[0] * (p == "hip") for p in parts],
+                                          [a.lean[1] * (p == "thigh") for p in parts]]))
+        for name, pose in poses.items():
+            laws[f"{name}, leaning {a.lean[0]:g} {a.lean[1]:g}"] = (
+                pose, lambda g, pose=pose: pose + gravity_lean(g, gains).double().numpy()[0])
+    if a.level:
+        upright = torch.tensor([[0.0, 0.0, -1.0]])
+        level_pose = a.level_law.joints(upright, float(robot.joint_high[2])).double().numpy()[0]
+        laws["level stance"] = (level_pose, lambda g: a.level_law.joints(g, float(robot.joint_high[2])).double().numpy()[0])
     # Trunk over the feet's bottoms in each pose (the robot's own forward kinematics), plus the clearance.
-    level = KinematicHeight(robot).level(np.stack(list(poses.values())))
-    parts = [n.split("_")[1] for n in robot.joint_names]
-    lean = (np.array([[a.lean[0] * (p == "hip") for p in parts], [a.lean[1] * (p == "thigh") for p in parts]])
-            if any(a.lean) else None)
-    heights = {name: float(h) + CLEARANCE_M for name, h in zip(poses, level, strict=True)}
-    print(f"tilt from vertical (deg) after {a.hold_s} s holding the pose, friction {a.friction}, Kp {cfg.robot.kp:g}; "
-          f"headings {', '.join(f'{h:g}' for h in a.headings_deg)}° (0 = facing uphill)")
+    level = KinematicHeight(robot).level(np.stack([pose for pose, _ in laws.values()]))
+    heights = {name: float(h) + CLEARANCE_M for name, h in zip(laws, level, strict=True)}
+    print(f"tilt from vertical (deg) / trunk height over the ground beneath it (m) after {a.hold_s} s holding "
+          f"the pose, friction {a.friction}, Kp {cfg.robot.kp:g}; headings {', '.join(f'{h:g}' for h in a.headings_deg)}° "
+          "(0 = facing uphill)")
     for deg in a.slopes_deg:
         cell = replace(base, slope_pct=100.0 * math.tan(math.radians(deg)))
         model = build_world(cell, cfg, ContextConfig(friction=a.friction), 0, robot=robot).model
-        for name, pose in poses.items():
-            for leaned in (None,) if lean is None else (None, lean):
-                tilts = [final_tilt_deg(model, math.radians(deg), math.radians(h), pose, heights[name], a.hold_s,
-                                        leaned, cfg.sim.control_dt_s) for h in a.headings_deg]
-                label = name + (f", leaning {a.lean[0]:g} {a.lean[1]:g}" if leaned is not None else "")
-                print(f"  slope {deg:4.1f}°  {label:26s} " + "  ".join(f"{t:5.0f}" for t in tilts))
+        for name, (pose, law) in laws.items():
+            ends = [final_state(model, math.radians(deg), math.radians(h), pose, heights[name], a.hold_s, law,
+                                cfg.sim.control_dt_s) for h in a.headings_deg]
+            print(f"  slope {deg:4.1f}°  {name:26s} " + "  ".join(f"{t:5.0f} {z:.3f}" for t, z in ends))
 
 
 if __name__ == "__main__":

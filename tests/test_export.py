@@ -442,7 +442,7 @@ def test_gravity_lean_turns_the_legs_towards_gravity_and_pose_upright_follows_it
     import math
 
     from selfright.config import ActionConfig
-    from selfright.policies.pose_blend import gravity_lean, lean_gains
+    from selfright.policies.pose_blend import LeanedPose, gravity_lean, lean_gains
     from selfright.policies.variants import PoseUpright
     from selfright.robots import get_robot
 
@@ -465,13 +465,47 @@ def test_gravity_lean_turns_the_legs_towards_gravity_and_pose_upright_follows_it
 
     x = torch.zeros(1, 42)
     x[0, :3] = g[1]  # nose up 20°: upright within 35°
-    p = PoseUpright(_Zeros(), 35.0, 1, list(range(12)), target=torch.zeros(12), weight=0.5,
-                    lean=lean_gains(robot, action, (0.0, 1.0)))
+    p = PoseUpright(_Zeros(), 35.0, 1, list(range(12)), weight=0.5,
+                    target=LeanedPose(torch.zeros(12), lean_gains(robot, action, (0.0, 1.0))))
     p.reset(np.array([0]))
     got = p.act({"student": x}, np.array([0]), [None])[0] * action.scale_rad
     torch.testing.assert_close(got[1::3], torch.full((4,), 0.5 * a))  # half-way to the leaned stance
     with pytest.raises(ValueError, match="lean gains"):
-        PoseUpright(_Zeros(), 35.0, 1, [0, 1], target=[0.0, 0.0], lean=np.zeros((2, 3)))
+        LeanedPose(torch.zeros(2), np.zeros((2, 3)))
+
+
+def test_level_stance_levels_the_trunk_with_its_legs_and_leans_them_to_gravity():
+    """The low side's legs reach further (roll), the front legs shorten nose up (pitch level),
+    the thighs turn by the pitch (lean); upright it is the same square stance on every leg, and
+    as actions it maps back to its joint angles."""
+    import math
+
+    from selfright.config import ActionConfig
+    from selfright.policies.level_stance import LINK_M, LevelStance, LevelStanceTarget
+    from selfright.robots import get_robot
+
+    robot = get_robot("a1")
+    knee_high = float(robot.joint_high[2])
+    law = LevelStance(leg_m=0.33, roll_level=1.0, pitch_lean=1.0, pitch_level=0.5)
+    a = math.radians(10)
+    g = torch.tensor([[0.0, 0.0, -1.0], [0.0, math.sin(a), -math.cos(a)], [-math.sin(a), 0.0, -math.cos(a)]])
+    q = law.joints(g, knee_high).reshape(3, 4, 3)  # (case, leg FR FL RR RL, joint)
+    length = 2 * LINK_M * torch.cos(q[..., 2] / 2)
+    torch.testing.assert_close(length[0], torch.full((4,), 0.33))  # upright: square
+    torch.testing.assert_close(q[0, :, 1], -q[0, :, 2] / 2)  # foot under the hip
+    assert (q[:, :, 0] == 0).all()  # hips at 0 throughout
+    assert length[1, 1] > 0.33 > length[1, 0] and length[1, 3] > 0.33 > length[1, 2]  # left down: left legs reach
+    assert length[2, 0] < 0.33 < length[2, 2]  # nose up: front legs shorter, rear longer
+    torch.testing.assert_close(q[2, :, 1] + q[2, :, 2] / 2, torch.full((4,), a))  # thighs leaned by the pitch
+    steep = law.joints(torch.tensor([[0.0, 0.9, -0.44]]), knee_high).reshape(4, 3)
+    assert steep[:, 2].max() <= knee_high + 1e-6  # never past the knee's limit
+    action = ActionConfig(reference="tall")
+    target = LevelStanceTarget(law, robot, action)
+    back = target(g) * action.scale_rad + torch.as_tensor(robot.reference_pose("tall"), dtype=torch.float32)
+    torch.testing.assert_close(back, law.joints(g, knee_high))
+    assert LevelStanceTarget(law, robot, action, [1, 4])(g).shape == (3, 2)
+    with pytest.raises(ValueError, match="leg_m"):
+        LevelStance(leg_m=0.5)
 
 
 def test_braked_holds_its_pose_from_a_re_fall_until_the_trunk_is_still():

@@ -46,7 +46,7 @@ def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
 
 def test_slope_stance_stands_on_the_plane_and_tips_facing_up_the_incline(monkeypatch, capsys):
     run_script("slope_stance.py", ["--slopes-deg", "0", "20", "--headings-deg", "0", "90"], monkeypatch)
-    tilts = {tuple(line.split()[1:4]): [float(v) for v in line.split()[-2:]]
+    tilts = {tuple(line.split()[1:4]): [float(v) for v in line.split()[-4::2]]
              for line in capsys.readouterr().out.splitlines() if line.strip().startswith("slope")}
     assert max(tilts[("0.0°", "tall", "stance")] + tilts[("0.0°", "A1", "stand")]) < 5.0
     assert min(tilts[("20.0°", "tall", "stance")] + tilts[("20.0°", "A1", "stand")]) > 60.0  # tipped over
@@ -54,10 +54,18 @@ def test_slope_stance_stands_on_the_plane_and_tips_facing_up_the_incline(monkeyp
 
 def test_slope_stance_leaning_to_gravity_stands_facing_up_and_down_the_incline(monkeypatch, capsys):
     run_script("slope_stance.py", ["--slopes-deg", "20", "--headings-deg", "0", "180", "--lean", "0", "1"], monkeypatch)
-    rows = {" ".join(line.split()[2:-2]): [float(v) for v in line.split()[-2:]]
+    rows = {" ".join(line.split()[2:-4]): [float(v) for v in line.split()[-4::2]]
             for line in capsys.readouterr().out.splitlines() if line.strip().startswith("slope")}
     assert min(rows["tall stance"]) > 60.0  # square to the slope, it tips
     assert max(rows["tall stance, leaning 0 1"]) < 25.0  # feet under the hips: stands, square to the 20° slope
+
+
+def test_slope_stance_level_stands_at_every_heading_over_the_bar(monkeypatch, capsys):
+    run_script("slope_stance.py", ["--slopes-deg", "20", "--headings-deg", "0", "90", "180", "--level"], monkeypatch)
+    (row,) = [line.split() for line in capsys.readouterr().out.splitlines() if "level stance" in line]
+    tilts, heights = [float(v) for v in row[-6::2]], [float(v) for v in row[-5::2]]
+    assert max(tilts) < 20.0  # up, across and down the 20° slope, held by the servos alone
+    assert min(heights) > 0.33  # over the goal bar (0.32 m) above the ground beneath the trunk
 
 
 def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):

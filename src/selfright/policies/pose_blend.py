@@ -5,6 +5,8 @@ has been upright, and a weight that ramps the actions to the pose once the count
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import torch
 
@@ -49,6 +51,31 @@ def gravity_lean(gravity: torch.Tensor, gains: torch.Tensor) -> torch.Tensor:
     roll = torch.atan2(g[:, 1], -g[:, 2])
     pitch = -torch.atan2(g[:, 0], -g[:, 2])
     return roll[:, None] * gains[0].to(g) + pitch[:, None] * gains[1].to(g)
+
+
+class LeanedPose:
+    """A fixed pose's actions ``target`` (C,) plus ``gravity_lean`` with ``gains`` (2, C): called
+    with the projected gravity (k, 3), the (k, C) target actions of a stance that leans."""
+
+    def __init__(self, target, gains):
+        self.target = torch.as_tensor(target, dtype=torch.float32)
+        self.gains = torch.as_tensor(gains, dtype=torch.float32)
+        if self.gains.shape != (2, len(self.target)):
+            raise ValueError(f"lean gains are (2, columns) = (2, {len(self.target)}), got {tuple(self.gains.shape)}")
+
+    def __call__(self, gravity: torch.Tensor) -> torch.Tensor:
+        g = gravity.detach().cpu()
+        return (self.target + gravity_lean(g, self.gains)).to(gravity.device)
+
+
+StanceTarget = torch.Tensor | Callable[[torch.Tensor], torch.Tensor]
+"""A stance's actions: fixed (C,), or a law of the trunk's projected gravity (k, 3) → (k, C)
+(``LeanedPose``, ``selfright.policies.level_stance.LevelStanceTarget``)."""
+
+
+def target_for(target: StanceTarget, gravity: torch.Tensor) -> torch.Tensor:
+    """``target`` itself when fixed, else ``target(gravity)``."""
+    return target(gravity) if callable(target) else target
 
 
 def lean_gains(robot, action: ActionConfig, lean: tuple[float, float], columns: list[int] | None = None

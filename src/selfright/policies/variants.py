@@ -19,7 +19,7 @@ from selfright.env.observations import privileged_columns
 from selfright.policies.actor import ActorMLP, group_dim
 from selfright.policies.base import Policy, combined_digest
 from selfright.policies.history import ObsHistory
-from selfright.policies.pose_blend import blend_weight, gravity_lean, pose_blend, upright_count
+from selfright.policies.pose_blend import StanceTarget, blend_weight, pose_blend, target_for, upright_count
 from selfright.policies.slots import LastActions, SlotNoise, grown, slot_index
 from selfright.policies.stall import StallSwitch, TiltSwitch
 from selfright.train.symmetry import group_mirrors, mirror
@@ -163,20 +163,20 @@ class PoseUpright(Policy):
     ``--pose-upright-s``)."""
 
     def __init__(self, inner: Policy, tilt_deg: float, ramp_steps: int, columns: Sequence[int],
-                 target: Sequence[float] | None = None, delay_steps: int = 0, label: str = "hips to 0",
-                 weight: float = 1.0, lean: np.ndarray | None = None):
+                 target: Sequence[float] | StanceTarget | None = None, delay_steps: int = 0,
+                 label: str = "hips to 0", weight: float = 1.0):
         if ramp_steps < 1:
             raise ValueError(f"the pose ramp needs at least one step, got {ramp_steps}")
         if delay_steps < 0:
             raise ValueError(f"the pose delay cannot be negative, got {delay_steps}")
         self.inner, self.ramp, self.delay, self.cols = inner, int(ramp_steps), int(delay_steps), list(columns)
         self.weight = blend_weight(weight)
-        self.target = torch.zeros(len(self.cols)) if target is None else torch.as_tensor(target, dtype=torch.float32)
-        if self.target.shape != (len(self.cols),):
+        if callable(target):  # a law of the projected gravity (a stance that leans or levels)
+            self.target = target
+        else:
+            self.target = torch.zeros(len(self.cols)) if target is None else torch.as_tensor(target, dtype=torch.float32)
+        if not callable(self.target) and self.target.shape != (len(self.cols),):
             raise ValueError(f"one target per column: {len(self.cols)} columns, target of shape {tuple(self.target.shape)}")
-        self.lean = None if lean is None else torch.as_tensor(lean, dtype=torch.float32)
-        if self.lean is not None and self.lean.shape != (2, len(self.cols)):
-            raise ValueError(f"lean gains are (2, columns) = (2, {len(self.cols)}), got {tuple(self.lean.shape)}")
         self._tilted = TiltSwitch(tilt_deg)  # upright = not tilted over tilt_deg, as for the composites
         self.groups = tuple(sorted(set(inner.groups) | {"student"}))
         self.action_mapping, self.digest = inner.action_mapping, inner.digest
@@ -197,9 +197,7 @@ class PoseUpright(Policy):
         self._upright_steps = grown(self._upright_steps, t)
         up = ~self._tilted.step(obs["student"], t)
         self._upright_steps[t] = upright_count(self._upright_steps[t], up)
-        target = self.target
-        if self.lean is not None:
-            target = target + gravity_lean(obs["student"][:, :3].detach().cpu().float(), self.lean)
+        target = target_for(self.target, obs["student"][:, :3].detach().cpu().float())
         return pose_blend(a, self._upright_steps[t], self.delay, self.ramp, target, self.cols, self.weight)
 
 

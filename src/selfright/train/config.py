@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from selfright.config import RandomizationConfig, RewardConfig
+from selfright.policies.level_stance import LevelStance
 
 __all__ = [
     "Context", "Role", "RewardConfig", "RandomizationConfig", "EpisodeConfig", "PolicyConfig",
@@ -366,6 +367,13 @@ class DistillationConfig:
     hips in the world fore and aft: held on the 20° slope, that stance stands facing up or down
     it, where the square one tips (``python scripts/slope_stance.py --lean 0 1``). 0 0 = the
     fixed ``stance_pose``. **Not** the seed's recipe."""
+    stance_level: bool = False
+    """With ``stance_ramp_s``: the stance is ``stance_level_law`` instead of ``stance_pose``: leg
+    lengths and lean set each step from the IMU's gravity so that, held by the servos alone, it
+    stands on the 20° slope at every heading (``selfright.policies.level_stance``; ``python
+    scripts/slope_stance.py --level``). **Not** the seed's recipe."""
+    stance_level_law: LevelStance = field(default_factory=LevelStance)
+    """With ``stance_level``: the law's leg length and gains."""
     hold_after_s: float = 0.0
     """> 0 with a student ``--teacher``: once the robot has stood still over the goal bar for this
     long (s) — trunk upright within ``stance_tilt_deg``, its height above the ground beneath it at

@@ -37,7 +37,8 @@ from selfright.evaluate.results import factor_flags
 from selfright.env.goal import goal_height_m
 from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
-from selfright.policies.pose_blend import lean_gains, stance_action
+from selfright.policies.level_stance import LevelStanceTarget
+from selfright.policies.pose_blend import LeanedPose, lean_gains, stance_action
 from selfright.policies.reference import reference_offset
 from selfright.policies.stall import ScanSwitch, StallSwitch, hand_over_rule
 from selfright.train.checkpoints import (
@@ -420,8 +421,13 @@ class TrainingRun:
         s, alg, d = self.spec, self.runner.alg, self.spec.train.distillation
         robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
         base = self.label_student.to(s.device).eval()
-        target = (torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
-                  if d.stance_ramp_s > 0 else None)
+        target = None
+        if d.stance_ramp_s > 0 and d.stance_level:
+            target = LevelStanceTarget(d.stance_level_law, robot, s.bench.action)
+        elif d.stance_ramp_s > 0:
+            target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
+            if any(d.stance_lean):
+                target = LeanedPose(target, lean_gains(robot, s.bench.action, d.stance_lean))
         rescue = {}
         if d.rescue_student is not None:
             flag = "--train.distillation.rescue-student"
@@ -440,9 +446,7 @@ class TrainingRun:
                              d.hold_joint_speed_rad_s)
         teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
-                                weight=d.stance_weight, hold=hold,
-                                lean=lean_gains(robot, s.bench.action, d.stance_lean) if d.stance_ramp_s > 0 else None,
-                                **rescue)
+                                weight=d.stance_weight, hold=hold, **rescue)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:

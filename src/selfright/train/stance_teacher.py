@@ -34,7 +34,7 @@ from torch import nn
 
 from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns, privileged_columns
 from selfright.policies.actor import ActorMLP
-from selfright.policies.pose_blend import blend_weight, gravity_lean, pose_blend, upright_count
+from selfright.policies.pose_blend import StanceTarget, blend_weight, pose_blend, target_for, upright_count
 from selfright.policies.reference import ReferenceShift
 from selfright.policies.stall import StallSwitch, TiltSwitch
 
@@ -82,16 +82,15 @@ class StanceTeacher(nn.Module):
     ``Distillation`` calls ``reset(dones)`` every step."""
 
     def __init__(self, base: ActorMLP, group: str, num_envs: int, tilt_deg: float, delay_steps: int,
-                 ramp_steps: int, target: torch.Tensor | None, weight: float = 1.0, rescue: ActorMLP | None = None,
+                 ramp_steps: int, target: StanceTarget | None, weight: float = 1.0, rescue: ActorMLP | None = None,
                  rescue_group: str = "student", rescue_switch: StallSwitch | None = None,
-                 rescue_offset: torch.Tensor | np.ndarray | None = None, hold: StillHold | None = None,
-                 lean: np.ndarray | None = None):
+                 rescue_offset: torch.Tensor | np.ndarray | None = None, hold: StillHold | None = None):
         """``rescue`` (reading ``rescue_group``) labels where ``rescue_switch`` hands over; its
         actions are shifted by ``rescue_offset`` (J,) (its reference pose − the base's, in action
         units; None when they share one) into the base's units. ``hold``: where it says so, the
-        label is the previous action (applied after the stance blend and the rescue). ``lean``
-        (2, J), with a ``target``: the stance's legs lean towards gravity each step
-        (``gravity_lean`` on the trunk's projected gravity), the feet under the hips in the world."""
+        label is the previous action (applied after the stance blend and the rescue). ``target``
+        may be a law of the trunk's projected gravity (``StanceTarget``): a stance that leans
+        or levels with the trunk."""
         super().__init__()
         self.hold = hold
         if (rescue is None) != (rescue_switch is None):
@@ -103,10 +102,9 @@ class StanceTeacher(nn.Module):
         self.base, self.group = base, group
         self.tilted = TiltSwitch(tilt_deg)
         self.delay, self.ramp, self.weight = int(delay_steps), int(ramp_steps), blend_weight(weight)
-        self.register_buffer("target", None if target is None else torch.as_tensor(target, dtype=torch.float32))
-        if lean is not None and target is None:
-            raise ValueError("a stance lean needs a stance target")
-        self.register_buffer("lean", None if lean is None else torch.as_tensor(lean, dtype=torch.float32))
+        self.law = target if callable(target) else None
+        self.register_buffer("target", None if target is None or self.law is not None
+                             else torch.as_tensor(target, dtype=torch.float32))
         self.count = torch.zeros(num_envs)
         """Control steps each env's trunk has been upright (CPU)."""
 
@@ -116,8 +114,8 @@ class StanceTeacher(nn.Module):
         up = ~self.tilted.step(x, torch.arange(x.shape[0]))
         self.count = upright_count(self.count, up)
         labels = self.base(obs[self.group])
-        if self.target is not None:
-            target = self.target if self.lean is None else self.target + gravity_lean(x[:, :3], self.lean)
+        if self.target is not None or self.law is not None:
+            target = target_for(self.law if self.law is not None else self.target, x[:, :3])
             labels = pose_blend(labels, self.count, self.delay, self.ramp, target, weight=self.weight)
         if self.rescue is not None:
             use = self.rescue_switch.step(x, torch.arange(x.shape[0])).to(labels.device)
