@@ -22,6 +22,9 @@ Writes an ordinary ``selfright evaluate`` results folder, so ``scripts/seed_tabl
         --seed 4 --out results/rough_hips0_s4
     python scripts/policy_variants.py --policies rough --pose-upright-s 1 --pose-upright-delay-s 2 \\
         --grid rough --seed 4 --out results/rough_pose_s4
+    python scripts/policy_variants.py --policies incline --pose-upright-s 0.5 --pose-upright-delay-s 0.3 \\
+        --pose-upright-weight 0.3 --pose-upright-level --zero-hips-tilt-deg 35 --grid incline --seed 4 \\
+        --out results/incline_level_s4
     python scripts/policy_variants.py --policies incline --side-mirror 1 --grid incline \\
         --seed 20 --out results/incline_side_s20
     python scripts/policy_variants.py --policies incline --brake-pose 0 0.46 0.46 -0.92 --grid incline \\

@@ -10,7 +10,8 @@ A1's stand pose nor the tall stance of ``--train.reward.stance`` /
 ``--train.distillation.stance-pose`` stays up at any heading; from 10° facing uphill they tip
 backwards. So on the incline standing is an active, heading-dependent posture the policy has
 to keep adjusting, and the fixed-stance recipes that helped on rough ground
-(docs/training.md) do not carry over to it.
+(docs/training.md) do not carry over to it. ``--level`` holds such a posture, set from the
+IMU's gravity alone (``selfright.policies.level_stance``), and it stands at every heading.
 
     python scripts/slope_stance.py                       # 0°, 10°, 15°, 20°
     python scripts/slope_stance.py --slopes-deg 20 --friction 0.6
