@@ -76,7 +76,7 @@ def test_failure_modes_accounts_for_every_episode(monkeypatch, capsys):
 def test_tumbles_finds_each_upright_spell_that_ends_tilted():
     sys.path.insert(0, str(SCRIPTS))
     try:
-        from tumbles import refalls
+        from tumbles import final_stay, refalls
     finally:
         sys.path.remove(str(SCRIPTS))
     up_z = np.array([0.0, 0.9, 0.9, 0.9, 0.2, 0.95, 0.95])  # up for 3 steps, tilted, up to the end
@@ -85,6 +85,12 @@ def test_tumbles_finds_each_upright_spell_that_ends_tilted():
     height = np.array([0.1, 0.3, 0.35, 0.3, 0.1, 0.33, 0.33])
     (e,) = refalls(up_z, tip, feet, height, ok=False, dt=0.02)  # the spell still upright at the end is no re-fall
     assert e.upright_s == pytest.approx(0.06) and e.mean_feet == 3.0 and e.max_height_m == 0.35 and e.tip_deg == 180.0
+    assert np.isnan(e.downhill_mps)  # no speed series given
+    downhill = np.array([0.0, 1.0, 2.0, 3.0, 0.0, 0.5, 0.7])
+    (e,) = refalls(up_z, tip, feet, height, ok=False, dt=0.1, downhill=downhill)
+    assert e.downhill_mps == pytest.approx(1.5)  # over its first 0.2 s: steps 1 and 2
+    assert final_stay(up_z, height, downhill, dt=0.1) == pytest.approx((0.6, 0.33))  # the spell it ends in
+    assert final_stay(up_z[:5], height[:5], downhill[:5], dt=0.1) is None  # ends tilted over
 
 
 def test_tumbles_runs_on_the_incline(monkeypatch, capsys):
