@@ -310,6 +310,8 @@ def test_model_card_reward_line_flags_anything_but_table_i():
     assert line.startswith("**not** the seed's Table I") and "stance term weight 4.0 towards (0.0, 0.46, -0.92)" in line
     line = reward_summary({"role": "teacher", "train_config": {"reward": {**table, "upright_spin": 0.5}}})
     assert line.startswith("**not** the seed's Table I") and "upright-spin term −0.5 · ‖ω‖² within 45.0° of upright" in line
+    line = reward_summary({"role": "teacher", "train_config": {"reward": {**table, "upright_speed": 4.0}}})
+    assert line.startswith("**not** the seed's Table I") and "upright-speed term −4.0 · ‖v_xy‖² within 45.0° of upright" in line
     line = reward_summary({"role": "teacher", "train_config": {"reward": {**table, "refall": 20.0},
                                                                "episode": {"terminate_on_refall": True}}})
     assert "re-fall penalty 20.0 per tip past 90.0° after upright (not in Table I)" in line

@@ -192,6 +192,22 @@ def test_upright_spin_term_is_off_by_default_and_charges_spin_only_near_upright(
     torch.testing.assert_close(terms["upright_spin"], total - base)
 
 
+def test_upright_speed_term_charges_horizontal_speed_only_near_upright():
+    rs = make_state()
+    rs.lin_vel[:] = torch.tensor([0.6, 0.8, 5.0])  # ‖v_xy‖² = 1; the vertical speed is not charged
+    torch.testing.assert_close(R.upright_speed_l2(rs), torch.tensor([-1.0, 0.0, 0.0]))
+    torch.testing.assert_close(R.upright_speed_l2(rs, max_tilt_deg=90.0), torch.tensor([-1.0, -1.0, 0.0]))
+    ctx = R.RewardContext(
+        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
+    )
+    base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
+    assert "upright_speed" not in terms  # Table I exactly
+    total, terms = R.weighted_rewards(rs, ctx, RewardConfig(upright_speed=4.0), 0.02)
+    torch.testing.assert_close(total - base, torch.tensor([-4.0 * 0.02, 0.0, 0.0]))
+    torch.testing.assert_close(terms["upright_speed"], total - base)
+
+
 @pytest.mark.parametrize(("term", "field", "event"), [("refall", "refell", R.refall_event), ("off_tile", "left_tile", R.off_tile_event)])
 def test_event_terms_are_paid_once_not_per_second(term, field, event):
     rs = make_state()

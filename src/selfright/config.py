@@ -220,8 +220,15 @@ class RewardConfig:
     robot arriving upright slow its roll instead of carrying it on past upright (the incline's
     re-falls: docs/training.md). The default 0 trains on Table I exactly; a positive weight is
     an ablation."""
+    upright_speed: float = 0.0
+    """**Not in Table I.** Weight of −‖v_xy‖², v_xy the trunk's horizontal velocity (m/s), while
+    the trunk's up axis is within ``upright_spin_tilt_deg`` of vertical, else 0 (per s): asks a
+    robot to come upright slowly. The incline's failed get-ups arrive upright at about twice the
+    downhill speed of those that stay up (``scripts/tumbles.py``; docs/training.md). The default
+    0 trains on Table I exactly; a positive weight is an ablation."""
     upright_spin_tilt_deg: float = 45.0
-    """With ``upright_spin``: how close to upright the term applies (deg, up axis vs world z)."""
+    """With ``upright_spin`` or ``upright_speed``: how close to upright the terms apply (deg, up
+    axis vs world z)."""
     refall: float = 0.0
     """**Not in Table I.** Penalty paid once per *re-fall* (an event term: the weight is not
     multiplied by dt): the trunk's up axis tips more than ``refall_tilt_deg`` from vertical

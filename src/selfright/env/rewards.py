@@ -95,13 +95,23 @@ def stance_kernel(rs: RobotState, leg_pose: tuple[float, float, float], sigma_sq
     return kernel * gate.to(kernel.dtype)
 
 
+def _upright_only(value: torch.Tensor, rs: RobotState, max_tilt_deg: float) -> torch.Tensor:
+    """``value`` (n,) where the trunk's up axis is within ``max_tilt_deg`` of world z, else 0."""
+    return value * (rs.up_z >= math.cos(math.radians(max_tilt_deg))).to(value.dtype)
+
+
 def upright_spin_l2(rs: RobotState, max_tilt_deg: float = 45.0) -> torch.Tensor:
     """(n,) −‖ω‖² (trunk angular velocity, rad²/s²) where the up axis is within ``max_tilt_deg``
     of world z; 0 elsewhere. Not a Table I term: used only with a nonzero
     ``RewardConfig.upright_spin`` weight (ablations)."""
-    spin = -rs.ang_vel.float().square().sum(dim=-1)
-    gate = rs.up_z >= math.cos(math.radians(max_tilt_deg))
-    return spin * gate.to(spin.dtype)
+    return _upright_only(-rs.ang_vel.float().square().sum(dim=-1), rs, max_tilt_deg)
+
+
+def upright_speed_l2(rs: RobotState, max_tilt_deg: float = 45.0) -> torch.Tensor:
+    """(n,) −‖v_xy‖² (the trunk's horizontal velocity, m²/s²) where the up axis is within
+    ``max_tilt_deg`` of world z; 0 elsewhere. Not a Table I term: used only with a nonzero
+    ``RewardConfig.upright_speed`` weight (ablations)."""
+    return _upright_only(-rs.lin_vel[:, :2].float().square().sum(dim=-1), rs, max_tilt_deg)
 
 
 def refall_event(refell: torch.Tensor) -> torch.Tensor:
@@ -163,6 +173,7 @@ OPTIONAL_TERMS: dict[str, OptionalTerm] = {
     "goal_set": lambda rs, ctx, cfg: goal_set_indicator(_needs(ctx.in_goal, "goal_set", "in_goal")),
     "stance": lambda rs, ctx, cfg: stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq),
     "upright_spin": lambda rs, ctx, cfg: upright_spin_l2(rs, cfg.upright_spin_tilt_deg),
+    "upright_speed": lambda rs, ctx, cfg: upright_speed_l2(rs, cfg.upright_spin_tilt_deg),
     "refall": lambda rs, ctx, cfg: refall_event(_needs(ctx.refell, "refall", "refell")),
     "off_tile": lambda rs, ctx, cfg: off_tile_event(_needs(ctx.left_tile, "off_tile", "left_tile")),
 }

@@ -321,7 +321,7 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
 
 OWN_WORDS = (
     "goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq", "upright_spin", "upright_spin_tilt_deg",
-    "refall", "refall_tilt_deg", "off_tile",
+    "upright_speed", "refall", "refall_tilt_deg", "off_tile",
 )
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
@@ -357,6 +357,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if reward.get("upright_spin"):
         tilt = reward.get("upright_spin_tilt_deg", table.upright_spin_tilt_deg)
         changed.append(f"upright-spin term −{reward['upright_spin']} · ‖ω‖² within {tilt}° of upright (not in Table I)")
+    if reward.get("upright_speed"):
+        tilt = reward.get("upright_spin_tilt_deg", table.upright_spin_tilt_deg)
+        changed.append(f"upright-speed term −{reward['upright_speed']} · ‖v_xy‖² within {tilt}° of upright (not in Table I)")
     refall_tilt = reward.get("refall_tilt_deg", table.refall_tilt_deg)
     if reward.get("refall"):
         changed.append(f"re-fall penalty {reward['refall']} per tip past {refall_tilt}° after upright (not in Table I)")
