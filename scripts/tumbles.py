@@ -15,7 +15,7 @@ It also prints how fast each robot was moving downhill as it came upright (the t
 speed, averaged over the spell's first ``ARRIVAL_S``), for the re-falls and for the upright
 stays that end the successful episodes. For the shipped `incline` (seeds 0 and 4–7) the
 re-falls arrive at about twice the downhill speed of the robots that stay up, and higher
-(docs/training.md, *A stance that stands on the slope*).
+(docs/training.md, *A stance that stands on the slope, distilling it, and slower arrivals*).
 """
 
 from __future__ import annotations
