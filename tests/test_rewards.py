@@ -22,6 +22,15 @@ def rot_x(angle: float) -> torch.Tensor:
     return torch.tensor([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
+def make_ctx(**events: torch.Tensor) -> R.RewardContext:
+    """The three envs' reward context: zero actions, started at the origin, z* 0.32 m; ``events``
+    the optional fields (``in_goal``, ``refell``, ``left_tile``)."""
+    return R.RewardContext(
+        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, **events,
+    )
+
+
 def make_state() -> RobotState:
     """Three envs: upright and standing; on its side; upside down."""
     n = 3
@@ -97,10 +106,7 @@ def test_weighted_sum_is_sum_of_w_r_dt():
     rs = make_state()
     cfg = RewardConfig()
     dt = 0.02
-    ctx = R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J),
-        start_xy=torch.zeros(3, 2, dtype=torch.float64), joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
-    )
+    ctx = make_ctx()
     total, terms = R.weighted_rewards(rs, ctx, cfg, dt)
     assert set(terms) == set(R.reward_weights(cfg))
     # env 0 stands upright, still, on four feet at exactly z*: orientation + φ(0) + feet.
@@ -132,10 +138,7 @@ def test_standing_height_on_slopes():
 
 def test_goal_set_term_is_off_by_default_and_pays_in_goal():
     rs = make_state()
-    ctx = R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
-        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, in_goal=torch.tensor([True, False, False]),
-    )
+    ctx = make_ctx(in_goal=torch.tensor([True, False, False]))
     base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
     assert "goal_set" not in terms  # Table I exactly
     total, terms = R.weighted_rewards(rs, ctx, RewardConfig(goal_set=5.0), 0.02)
@@ -160,10 +163,7 @@ def test_stance_term_is_off_by_default_and_pays_only_upright_on_four_feet():
     assert R.stance_kernel(tilted, pose, 0.25)[0].item() == pytest.approx(1.0)
     tilted.rot[0] = rot_x(math.radians(31.0))
     assert R.stance_kernel(tilted, pose, 0.25)[0].item() == 0.0
-    ctx = R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
-        joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
-    )
+    ctx = make_ctx()
     base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
     assert "stance" not in terms  # Table I exactly
     total, terms = R.weighted_rewards(rs, ctx, RewardConfig(stance=4.0, stance_pose=pose), 0.02)
@@ -181,10 +181,7 @@ def test_upright_spin_term_is_off_by_default_and_charges_spin_only_near_upright(
     assert R.upright_spin_l2(tilted)[0].item() == pytest.approx(-9.0)
     tilted.rot[0] = rot_x(math.radians(46.0))
     assert R.upright_spin_l2(tilted)[0].item() == 0.0
-    ctx = R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
-        joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
-    )
+    ctx = make_ctx()
     base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
     assert "upright_spin" not in terms  # Table I exactly
     total, terms = R.weighted_rewards(rs, ctx, RewardConfig(upright_spin=0.5), 0.02)
@@ -197,10 +194,7 @@ def test_upright_speed_term_charges_horizontal_speed_only_near_upright():
     rs.lin_vel[:] = torch.tensor([0.6, 0.8, 5.0])  # ‖v_xy‖² = 1; the vertical speed is not charged
     torch.testing.assert_close(R.upright_speed_l2(rs), torch.tensor([-1.0, 0.0, 0.0]))
     torch.testing.assert_close(R.upright_speed_l2(rs, max_tilt_deg=90.0), torch.tensor([-1.0, -1.0, 0.0]))
-    ctx = R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
-        joint_low=LOW, joint_high=HIGH, target_height_m=0.32,
-    )
+    ctx = make_ctx()
     base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
     assert "upright_speed" not in terms  # Table I exactly
     total, terms = R.weighted_rewards(rs, ctx, RewardConfig(upright_speed=4.0), 0.02)
@@ -211,10 +205,7 @@ def test_upright_speed_term_charges_horizontal_speed_only_near_upright():
 @pytest.mark.parametrize(("term", "field", "event"), [("refall", "refell", R.refall_event), ("off_tile", "left_tile", R.off_tile_event)])
 def test_event_terms_are_paid_once_not_per_second(term, field, event):
     rs = make_state()
-    ctx = R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
-        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, **{field: torch.tensor([True, False, False])},
-    )
+    ctx = make_ctx(**{field: torch.tensor([True, False, False])})
     torch.testing.assert_close(event(getattr(ctx, field)), torch.tensor([-1.0, 0.0, 0.0]))
     base, terms = R.weighted_rewards(rs, ctx, RewardConfig(), 0.02)
     assert term not in terms  # Table I exactly
