@@ -159,6 +159,28 @@ def test_init_from_starts_new_teacher_from_weights(tmp_path: Path):
             raise AssertionError("expected ValueError")
 
 
+def test_init_optimizer_takes_the_source_learning_rate(tmp_path: Path):
+    """--init-optimizer: the fine-tune starts at the learning rate (and Adam state) the source
+    ended at, not at the configured initial rate; without --init-from it is refused."""
+    src = tmp_path / "flat"
+    run(spec(src))
+    path = src / "model_0.pt"
+    data = torch.load(path, weights_only=False)
+    data["optimizer_state_dict"]["param_groups"][0]["lr"] = 1e-5  # as an adaptive schedule leaves it
+    torch.save(data, path)
+    fresh = TrainingRun(spec(tmp_path / "fresh", init_from=src))
+    fresh.setup()
+    assert fresh.runner.alg.learning_rate != 1e-5
+    fresh.env.close()
+    kept = TrainingRun(spec(tmp_path / "kept", init_from=src, init_optimizer=True))
+    kept.setup()
+    assert kept.runner.alg.learning_rate == 1e-5
+    assert kept.runner.alg.optimizer.param_groups[0]["lr"] == 1e-5
+    kept.env.close()
+    with pytest.raises(ValueError, match="init-optimizer"):
+        TrainingRun(spec(tmp_path / "bad", init_optimizer=True)).setup()
+
+
 def test_init_from_recentres_features_constant_in_the_source(tmp_path: Path):
     """The slope angle never varies on the flat plane; on the incline it must not enter the
     network as (0.35 rad - 0) / eps. Only such features move; the other statistics stay."""

@@ -45,6 +45,10 @@ class TrainArgs:
     the student to start as (its network and history) instead of a copy of the --teacher
     student, e.g. one trained under --train.randomization.sensor-noise while the labels come from
     a student trained on exact sensors (labels always read the exact sensors)."""
+    init_optimizer: bool = False
+    """Teacher with --init-from: also take the source's optimiser state and learning rate, so
+    that fine-tuning goes on at the rate the source ended at (the adaptive schedule may have
+    brought it down to 1e-5) instead of a fresh optimiser at the configured initial rate."""
     seed: int = 0
     """Seed of the terrain tiles, the episodes and the network initialisation."""
     physics_threads: int = 1
@@ -124,6 +128,7 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         resume=args.resume,
         teacher=args.teacher,
         init_from=args.init_from,
+        init_optimizer=args.init_optimizer,
         physics_threads=args.physics_threads,
         torch_threads=args.torch_threads,
         device=args.device,

@@ -88,6 +88,8 @@ class RunSpec:
     init_from: Path | None = None
     """Weights to start a new run from: a teacher's (a fine-tuning curriculum), or a student's
     (``student-ppo``, or a student labelled by another student that starts as a third one)."""
+    init_optimizer: bool = False
+    """With a teacher's ``init_from``: load its optimiser state and learning rate too."""
     torch_threads: int
     device: str = "cpu"
     """Torch device of the networks (physics stays on the CPU)."""
@@ -245,6 +247,8 @@ class TrainingRun:
                 raise ValueError("--role student-ppo trains the whole student; drop --train.episode.upright/tilted-policy")
             if s.train.ppo.symmetry_augmentation or s.train.ppo.mirror_loss_coef:
                 raise ValueError("symmetry augmentation mirrors the teacher observations; not with --role student-ppo")
+        if s.init_optimizer and (s.init_from is None or s.role != "teacher"):
+            raise ValueError("--init-optimizer goes with a teacher's --init-from (the optimiser of the source run)")
         if s.init_from is not None:
             if s.role == "student" and not self.labels_from_student:
                 raise ValueError("--init-from is for teachers, student-ppo runs and students labelled by another "
@@ -370,7 +374,7 @@ class TrainingRun:
                 source["actor_state_dict"] = with_std_head(source["actor_state_dict"])
             elif not any(k.startswith("distribution.") for k in source["actor_state_dict"]):
                 raise ValueError(f"--init-from {init} has a state-dependent action std; add --train.policy.state-dependent-std")
-            r.alg.load(source, {"actor": True, "critic": True}, True)
+            r.alg.load(source, {"actor": True, "critic": True, "optimizer": s.init_optimizer}, True)
             self.init_ckpt = init
             _warn_symmetry_on_init(s.train, init_meta, init)
             if s.train.recenter_on_init:
