@@ -194,7 +194,7 @@ def stance_target(a: Args, robot, cfg: BenchmarkConfig, cols: list[int]):
     if a.pose_upright_level:
         return LevelStanceTarget(a.pose_upright_level_law, robot, cfg.action, cols)
     fixed = stance_action(robot, cfg.action, a.pose_upright)[cols]
-    gains = lean_gains(robot, cfg.action, a.pose_upright_lean, cols)
+    gains = lean_gains(robot, a.pose_upright_lean, cols, cfg.action.scale_rad)
     return fixed if gains is None else LeanedPose(fixed, gains)
 
 

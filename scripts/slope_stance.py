@@ -41,7 +41,7 @@ import tyro
 from selfright.config import BenchmarkConfig, ContextConfig, RewardConfig
 from selfright.env.world import build_world
 from selfright.policies.level_stance import LevelStance
-from selfright.policies.pose_blend import gravity_lean
+from selfright.policies.pose_blend import gravity_lean, lean_gains
 from selfright.robots import get_robot
 from selfright.robots.kinematics import KinematicHeight
 from selfright.terrain.grid import grid_cells
@@ -111,9 +111,7 @@ def main(a: Args) -> None:
     poses = {"tall stance": np.tile(np.asarray(RewardConfig().stance_pose), legs), "A1 stand": robot.stand_pose}
     laws: dict[str, tuple[np.ndarray, Law | None]] = {name: (pose, None) for name, pose in poses.items()}
     if any(a.lean):
-        parts = [n.split("_")[1] for n in robot.joint_names]
-        gains = torch.as_tensor(np.array([[a.lean[0] * (p == "hip") for p in parts],
-                                          [a.lean[1] * (p == "thigh") for p in parts]]))
+        gains = torch.as_tensor(lean_gains(robot, a.lean))  # rad per rad
         for name, pose in poses.items():
             laws[f"{name}, leaning {a.lean[0]:g} {a.lean[1]:g}"] = (
                 pose, lambda g, pose=pose: pose + gravity_lean(g, gains).double().numpy()[0])

@@ -74,7 +74,8 @@ def final_stay(up_z: np.ndarray, height: np.ndarray, downhill: np.ndarray, dt: f
     when it ends tilted over 45°."""
     if up_z[-1] <= COS_45:
         return None
-    start = len(up_z) - int(np.argmax(up_z[::-1] <= COS_45)) if (up_z <= COS_45).any() else 0
+    tilted = np.flatnonzero(up_z <= COS_45)
+    start = int(tilted[-1]) + 1 if len(tilted) else 0
     return arrival_speed(downhill, start, len(up_z), dt), float(height[start:].max())
 
 

@@ -447,8 +447,8 @@ def test_gravity_lean_turns_the_legs_towards_gravity_and_pose_upright_follows_it
     from selfright.robots import get_robot
 
     robot, action = get_robot("a1"), ActionConfig()
-    assert lean_gains(robot, action, (0.0, 0.0)) is None
-    gains = torch.as_tensor(lean_gains(robot, action, (0.5, 1.0)))
+    assert lean_gains(robot, (0.0, 0.0)) is None
+    gains = torch.as_tensor(lean_gains(robot, (0.5, 1.0), scale_rad=action.scale_rad))
     assert gains.shape == (2, 12)
     a = math.radians(20)
     g = torch.tensor([[0.0, 0.0, -1.0], [-math.sin(a), 0.0, -math.cos(a)], [0.0, math.sin(a), -math.cos(a)]])
@@ -466,7 +466,7 @@ def test_gravity_lean_turns_the_legs_towards_gravity_and_pose_upright_follows_it
     x = torch.zeros(1, 42)
     x[0, :3] = g[1]  # nose up 20°: upright within 35°
     p = PoseUpright(_Zeros(), 35.0, 1, list(range(12)), weight=0.5,
-                    target=LeanedPose(torch.zeros(12), lean_gains(robot, action, (0.0, 1.0))))
+                    target=LeanedPose(torch.zeros(12), lean_gains(robot, (0.0, 1.0), scale_rad=action.scale_rad)))
     p.reset(np.array([0]))
     got = p.act({"student": x}, np.array([0]), [None])[0] * action.scale_rad
     torch.testing.assert_close(got[1::3], torch.full((4,), 0.5 * a))  # half-way to the leaned stance

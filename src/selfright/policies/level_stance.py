@@ -32,6 +32,7 @@ import numpy as np
 import torch
 
 from selfright.config import ActionConfig
+from selfright.policies.pose_blend import roll_pitch
 
 LINK_M = 0.2
 """The A1's thigh and calf lengths (m), hip axis to knee and knee to foot centre."""
@@ -61,9 +62,7 @@ class LevelStance:
     def joints(self, gravity: torch.Tensor, knee_high: float) -> torch.Tensor:
         """(k, 12) joint targets (rad; legs FR, FL, RR, RL, each hip, thigh, knee) for the
         projected gravity ``gravity`` (k, 3); ``knee_high`` the knee's upper limit (rad, < 0)."""
-        g = gravity.to(torch.float32)
-        roll = torch.atan2(g[:, 1], -g[:, 2])
-        pitch = -torch.atan2(g[:, 0], -g[:, 2])
+        roll, pitch = roll_pitch(gravity)
         side = torch.tensor([-1.0, 1.0, -1.0, 1.0])  # FR, FL, RR, RL: +1 on the left
         front = torch.tensor([1.0, 1.0, -1.0, -1.0])
         length = (self.leg_m + self.roll_level * side * HALF_WIDTH_M * torch.tan(roll)[:, None]
@@ -71,7 +70,7 @@ class LevelStance:
         reach = 2 * LINK_M * math.cos(abs(knee_high) / 2)
         kappa = 2 * torch.arccos(length.clamp(0.1, reach) / (2 * LINK_M))
         thigh = kappa / 2 + self.pitch_lean * pitch[:, None]
-        return torch.stack([torch.zeros_like(kappa), thigh, -kappa], dim=2).reshape(len(g), 12)
+        return torch.stack([torch.zeros_like(kappa), thigh, -kappa], dim=2).reshape(len(gravity), 12)
 
 
 class LevelStanceTarget:

@@ -40,6 +40,14 @@ def pose_blend(actions: torch.Tensor, count: torch.Tensor, delay_steps: int, ram
     return out
 
 
+def roll_pitch(gravity: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The trunk's roll ψ = atan2(g_y, −g_z) and pitch δ = −atan2(g_x, −g_z) (rad, each (k,))
+    from the IMU's projected gravity ``gravity`` (k, 3): ψ > 0 with the left side down, δ > 0
+    nose up."""
+    g = gravity.to(torch.float32)
+    return torch.atan2(g[:, 1], -g[:, 2]), -torch.atan2(g[:, 0], -g[:, 2])
+
+
 def gravity_lean(gravity: torch.Tensor, gains: torch.Tensor) -> torch.Tensor:
     """(k, C) offsets to a pose's actions that lean its legs towards gravity: ``gravity`` (k, 3)
     is the IMU's projected gravity (down = (0, 0, −1) when upright), ``gains`` (2, C) multiply
@@ -47,10 +55,8 @@ def gravity_lean(gravity: torch.Tensor, gains: torch.Tensor) -> torch.Tensor:
     rad. On the A1 a hip column with gain 1/scale turns the leg about the trunk's x axis by ψ
     and a thigh column with gain 1/scale turns it about the y axis by δ: the feet move under
     the hips in the world, downhill of where a pose square to the slope puts them."""
-    g = gravity.to(torch.float32)
-    roll = torch.atan2(g[:, 1], -g[:, 2])
-    pitch = -torch.atan2(g[:, 0], -g[:, 2])
-    return roll[:, None] * gains[0].to(g) + pitch[:, None] * gains[1].to(g)
+    roll, pitch = roll_pitch(gravity)
+    return roll[:, None] * gains[0].to(roll) + pitch[:, None] * gains[1].to(roll)
 
 
 class LeanedPose:
@@ -78,17 +84,18 @@ def target_for(target: StanceTarget, gravity: torch.Tensor) -> torch.Tensor:
     return target(gravity) if callable(target) else target
 
 
-def lean_gains(robot, action: ActionConfig, lean: tuple[float, float], columns: list[int] | None = None
+def lean_gains(robot, lean: tuple[float, float], columns: list[int] | None = None, scale_rad: float = 1.0
                ) -> np.ndarray | None:
-    """(2, C) gains of ``gravity_lean`` in action units for ``columns`` (all joints when None) of
-    ``robot``: ``lean[0]`` times the roll on the hips, ``lean[1]`` times the pitch on the thighs;
-    None when both are 0 (a fixed pose)."""
+    """(2, C) gains of ``gravity_lean`` for ``columns`` (all joints when None) of ``robot``:
+    ``lean[0]`` times the roll on the hips, ``lean[1]`` times the pitch on the thighs, in rad
+    per rad, or in action units with the action mapping's ``scale_rad``; None when both are 0
+    (a fixed pose)."""
     if not any(lean):
         return None
     cols = list(range(len(robot.joint_names))) if columns is None else columns
     parts = [robot.joint_names[c].split("_")[1] for c in cols]
     return np.array([[lean[0] if p == "hip" else 0.0 for p in parts],
-                     [lean[1] if p == "thigh" else 0.0 for p in parts]]) / action.scale_rad
+                     [lean[1] if p == "thigh" else 0.0 for p in parts]]) / scale_rad
 
 
 def stance_action(robot, action: ActionConfig, leg: tuple[float, float, float]) -> np.ndarray:

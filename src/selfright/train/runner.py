@@ -431,7 +431,7 @@ class TrainingRun:
         elif d.stance_ramp_s > 0:
             target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
             if any(d.stance_lean):
-                target = LeanedPose(target, lean_gains(robot, s.bench.action, d.stance_lean))
+                target = LeanedPose(target, lean_gains(robot, d.stance_lean, scale_rad=s.bench.action.scale_rad))
         rescue = {}
         if d.rescue_student is not None:
             flag = "--train.distillation.rescue-student"
