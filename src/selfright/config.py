@@ -224,8 +224,8 @@ class RewardConfig:
     """**Not in Table I.** Weight of −‖v_xy‖², v_xy the trunk's horizontal velocity (m/s), while
     the trunk's up axis is within ``upright_spin_tilt_deg`` of vertical, else 0 (per s): asks a
     robot to come upright slowly. The incline's failed get-ups arrive upright faster downhill
-    than those that stay up (a median 0.82 against about 0.48 m/s) (``scripts/tumbles.py``; docs/training.md). The default
-    0 trains on Table I exactly; a positive weight is an ablation."""
+    than those that stay up (a median 0.82 against about 0.48 m/s; ``scripts/tumbles.py``,
+    docs/training.md). The default 0 trains on Table I exactly; a positive weight is an ablation."""
     upright_spin_tilt_deg: float = 45.0
     """With ``upright_spin`` or ``upright_speed``: how close to upright the terms apply (deg, up
     axis vs world z)."""
