@@ -23,7 +23,7 @@ import tyro
 
 from selfright.policies.actor import load_actor_file, teacher_checkpoint
 from selfright.policies.registry import shipped_path
-from selfright.train.checkpoints import META_FILE
+from selfright.policies.run_files import META_FILE
 from selfright.train.ship import card_record
 
 

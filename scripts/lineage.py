@@ -133,7 +133,7 @@ class Lineage:
 
 def checkpoint_iteration(path: str) -> int | None:
     """K of ``…/model_K.pt``; ``None`` for a folder (its latest checkpoint)."""
-    from selfright.train.checkpoints import CHECKPOINT_RE  # (imports torch: only where needed)
+    from selfright.policies.run_files import CHECKPOINT_RE  # (imports torch: only where needed)
 
     m = CHECKPOINT_RE.fullmatch(Path(path).name)
     return int(m.group(1)) if m else None

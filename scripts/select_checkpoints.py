@@ -28,7 +28,7 @@ from selfright.config import BenchmarkConfig
 from selfright.evaluate.metrics import wilson_interval
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.registry import make_policy
-from selfright.train.checkpoints import CHECKPOINT_RE, list_checkpoints
+from selfright.policies.run_files import CHECKPOINT_RE, list_checkpoints
 
 
 @dataclass(frozen=True)

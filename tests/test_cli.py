@@ -113,16 +113,3 @@ def test_evaluate_with_dc_motors_records_the_motor_model(tmp_path, capsys):
     assert summary["config"]["robot"]["motor"] == "dcmotor" and summary["machine"]["cores"] >= 1
 
 
-def test_student_ppo_warns_of_a_fast_first_actor_update():
-    import dataclasses
-    from pathlib import Path
-
-    from selfright.train.commands import TrainArgs, start_warnings
-    from selfright.train.config import PPOConfig, TrainConfig
-
-    fast = TrainArgs(out=Path("x"), role="student-ppo")
-    safe = dataclasses.replace(fast, train=TrainConfig(ppo=PPOConfig(learning_rate=1e-4)))
-    assert any("learning-rate 0.001" in w for w in start_warnings(fast))
-    assert start_warnings(safe) == []
-    assert start_warnings(dataclasses.replace(fast, resume=True)) == []
-    assert start_warnings(TrainArgs(out=Path("x"), role="teacher")) == []

@@ -6,16 +6,12 @@ import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Literal
+from typing import Literal
 
 import tyro
 
 from selfright.config import ActionConfig, BenchmarkConfig, ContextConfig, EvalConfig, GoalConfig, Motor, RobotConfig, SimConfig
 from selfright.evaluate.factors import FurtherFactors
-
-if TYPE_CHECKING:
-    from selfright.env.world import World
-    from selfright.terrain import Cell
 
 Grid = Literal["tiny", "quick", "paper", "flat", "rough", "incline"]
 
@@ -35,7 +31,7 @@ class _Episodes(FurtherFactors):
     (the further factors: ``FurtherFactors``)."""
 
     policy: str = "open-loop"
-    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, ...) | a .pt/.onnx file | a training run folder (its latest checkpoint) | your Python policy as FILE.py:NAME or package.module:NAME (README, *Your own policy*)."""
+    """zero | random | open-loop | a shipped policy (flat, rough, incline, sr, flat-teacher, rough-teacher, incline-teacher) | a .pt/.onnx file | a training run folder (its latest checkpoint) | your Python policy as FILE.py:NAME or package.module:NAME (README, *Your own policy*)."""
     grid: Grid = "quick"
     """tiny = 2×2 cells (tests), quick = every other level, paper = full 11×20 grid, or a training context."""
     seed: int = 0
@@ -49,7 +45,7 @@ class _Episodes(FurtherFactors):
     action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
     motor: Motor = "ideal"
-    """Motor model: ideal (full torque at any speed, the benchmark's default), dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; the *-dc policies and rough trained with it, the others with ideal) or envelope (the ideal servos with every policy's targets held to the DC motors' torque-speed envelope each control step)."""
+    """Motor model: ideal (full torque at any speed, the benchmark's default), dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; rough, rough-teacher and incline-teacher trained with it) or envelope (the ideal servos with every policy's targets held to the DC motors' torque-speed envelope each control step; incline trained with it)."""
     torque_envelope: bool = True
     """A policy trained with --motor dcmotor or envelope, run on the ideal servos, holds its commands to the DC motors' torque-speed envelope (selfright.policies.torque_envelope); --no-torque-envelope runs it unchanged."""
 
@@ -162,9 +158,8 @@ def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: 
     )
 
 
-def run_evaluate(a: Evaluate, world_for: Callable[[Cell], World] | None = None, worlds_label: str | None = None) -> None:
-    """``selfright evaluate``; ``world_for`` and ``worlds_label`` pass on to ``evaluate_grid``
-    for diagnostics that swap the tiles (scripts/train_tiles.py)."""
+def run_evaluate(a: Evaluate) -> None:
+    """``selfright evaluate``."""
     from selfright.evaluate.runner import evaluate_grid, format_table
     from selfright.policies.registry import make_policy
 
@@ -175,7 +170,7 @@ def run_evaluate(a: Evaluate, world_for: Callable[[Cell], World] | None = None, 
     policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
-        progress=a.progress, world_for=world_for, worlds_label=worlds_label,
+        progress=a.progress,
     )
     if a.plots:
         from selfright.plots import make_plots

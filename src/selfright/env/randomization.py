@@ -17,7 +17,22 @@ import torch
 
 from selfright.robots import RobotSpec
 from selfright.sim.scene import TERRAIN_GEOM
-from selfright.config import RandomizationConfig
+
+
+@dataclass(frozen=True, kw_only=True)
+class RandomizationConfig:
+    """Per-episode uniform domain randomisation, written into per-slot MuJoCo models."""
+
+    enabled: bool = True
+    """Randomise at all; when off every episode runs on its world's nominal model."""
+    friction: tuple[float, float] = (0.4, 1.2)
+    """Ground sliding friction ~ U(low, high) (dimensionless)."""
+    kp_scale: tuple[float, float] = (0.8, 1.2)
+    """PD stiffness multiplier ~ U(low, high) (dimensionless)."""
+    kd_scale: tuple[float, float] = (0.8, 1.2)
+    """PD damping multiplier ~ U(low, high) (dimensionless)."""
+    mass_scale: tuple[float, float] = (0.9, 1.1)
+    """Multiplier of every robot body's mass and inertia ~ U(low, high) (dimensionless)."""
 
 
 @dataclass(frozen=True)

@@ -2,20 +2,51 @@
 
 Each term maps the robot state after a control step (and, where needed, the actions or the
 episode's start point) to a tensor of shape (n,). Weights live only in
-``selfright.train.config.RewardConfig``; ``weighted_rewards`` forms w_i · r_i · dt per term
+``RewardConfig``; ``weighted_rewards`` forms w_i · r_i · dt per term
 and their sum, r_total = Σ_i w_i · r_i · dt.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Callable
 
 import torch
 
 from selfright.env.robot_state import RobotState
-from selfright.config import RewardConfig
+
+
+@dataclass(frozen=True, kw_only=True)
+class RewardConfig:
+    """Weights of the seed's reward terms (Table I). r_total = Σ w_i · r_i · dt."""
+
+    orientation: float = 2.5
+    """Weight of cos θ_z, the trunk up axis against world z (per s)."""
+    vertical_velocity: float = 0.1
+    """Weight of exp(−v_z² / vz_sigma_sq), v_z the trunk's vertical speed (per s)."""
+    torques: float = 0.001
+    """Weight of −‖τ‖², τ the motor torques (per N²·m²·s)."""
+    base_height: float = 40.0
+    """Weight of −(z* − z)², z the trunk height above the ground beneath it (per m²·s)."""
+    collisions: float = 1.0
+    """Weight of −n_c, the number of non-foot bodies touching the ground (per s)."""
+    action_rate: float = 0.01
+    """Weight of −‖a_t − a_{t−1}‖², a the (clipped) policy action (per s)."""
+    horizontal_drift: float = 0.01
+    """Weight of −‖xy_start − xy‖², trunk x-y displacement since the policy started (per m²·s)."""
+    joint_limits: float = 10.0
+    """Weight of −Σ_j (excess of q_j beyond its limits), rad (per rad·s)."""
+    feet_contact: float = 8.0
+    """Weight of 1 when all four feet touch the ground, else 0 (per s)."""
+    vz_sigma_sq: float = 0.25
+    """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
+    target_height_m: float | None = None
+    """Standing height z* of the base-height term on level ground (m); ``None`` = the robot's
+    standing height (``RobotSpec.stand_height_m``, 0.35 m on the A1). On a slope of angle α the
+    target is this / cos α, the vertical height of a robot standing square to the slope (z is
+    measured vertically above the ground beneath). The seed leaves z* unspecified; the default
+    targets the height the robot has when standing in the goal set, not the goal's lower bar
+    (0.8 × leg length = 0.32 m): with z* on the bar, nothing in Table I rewards standing above
+    it, and policies trained that way stood at 0.30–0.32 m, half outside the goal set."""
 
 
 # ----------------------------------------------------------------------------- terms
@@ -75,60 +106,6 @@ def all_feet_contact(rs: RobotState) -> torch.Tensor:
     return rs.feet_contact.all(dim=-1).float()
 
 
-def goal_set_indicator(in_goal: torch.Tensor) -> torch.Tensor:
-    """(n,) 1 while in the goal set, else 0. Not a Table I term: used only with a nonzero
-    ``RewardConfig.goal_set`` weight (ablations)."""
-    return in_goal.float()
-
-
-def stance_kernel(rs: RobotState, leg_pose: tuple[float, float, float], sigma_sq: float,
-                  max_tilt_deg: float = 30.0) -> torch.Tensor:
-    """(n,) exp(−‖q − q*‖² / sigma_sq), q* ``leg_pose`` (hip, thigh, knee; rad) on every leg,
-    where roll and pitch are each within ``max_tilt_deg`` (the goal set's tilt rule, as
-    ``selfright.env.goal.upright``) with all feet down; 0 elsewhere. Not a Table I term: used
-    only with a nonzero ``RewardConfig.stance`` weight (ablations)."""
-    q = rs.q.float()
-    target = torch.as_tensor(leg_pose, dtype=q.dtype, device=q.device).repeat(q.shape[-1] // 3)
-    kernel = torch.exp(-(q - target).square().sum(dim=-1) / sigma_sq)
-    tilt = math.radians(max_tilt_deg)
-    gate = rs.feet_contact.all(dim=-1) & (rs.roll.abs() <= tilt) & (rs.pitch.abs() <= tilt)
-    return kernel * gate.to(kernel.dtype)
-
-
-def _upright_only(value: torch.Tensor, rs: RobotState, max_tilt_deg: float) -> torch.Tensor:
-    """``value`` (n,) where the trunk's up axis is within ``max_tilt_deg`` of world z, else 0."""
-    return value * (rs.up_z >= math.cos(math.radians(max_tilt_deg))).to(value.dtype)
-
-
-def upright_spin_l2(rs: RobotState, max_tilt_deg: float = 45.0) -> torch.Tensor:
-    """(n,) −‖ω‖² (trunk angular velocity, rad²/s²) where the up axis is within ``max_tilt_deg``
-    of world z; 0 elsewhere. Not a Table I term: used only with a nonzero
-    ``RewardConfig.upright_spin`` weight (ablations)."""
-    return _upright_only(-rs.ang_vel.float().square().sum(dim=-1), rs, max_tilt_deg)
-
-
-def upright_speed_l2(rs: RobotState, max_tilt_deg: float = 45.0) -> torch.Tensor:
-    """(n,) −‖v_xy‖² (the trunk's horizontal velocity, m²/s²) where the up axis is within
-    ``max_tilt_deg`` of world z; 0 elsewhere. Not a Table I term: used only with a nonzero
-    ``RewardConfig.upright_speed`` weight (ablations)."""
-    return _upright_only(-rs.lin_vel[:, :2].float().square().sum(dim=-1), rs, max_tilt_deg)
-
-
-def refall_event(refell: torch.Tensor) -> torch.Tensor:
-    """(n,) −1 where the robot has just fallen again after having been upright (``refell``,
-    (n,) bool, detected by the training env, which keeps the memory of having been upright),
-    else 0. Not a Table I term: an event term, paid once per re-fall with a nonzero
-    ``RewardConfig.refall`` weight (ablations)."""
-    return -refell.float()
-
-
-def off_tile_event(left_tile: torch.Tensor) -> torch.Tensor:
-    """(n,) −1 where the robot has just left its tile (``left_tile``, (n,) bool, which ends the
-    episode), else 0. Not a Table I term: an event term, paid once, with a nonzero
-    ``RewardConfig.off_tile`` weight (ablations)."""
-    return -left_tile.float()
-
-
 def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
     """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
     above the ground beneath as z is, of a robot standing square to the slope with its trunk
@@ -154,39 +131,11 @@ class RewardContext:
     """(J,) upper joint limits (rad)."""
     target_height_m: float | torch.Tensor
     """Standing height z* (m), a scalar or (n,) per env (see ``standing_height``)."""
-    in_goal: torch.Tensor | None = None
-    """(n,) bool, in the goal set after this step (needed only by the ``goal_set`` term)."""
-    refell: torch.Tensor | None = None
-    """(n,) bool, fell again this step after having been upright (needed only by ``refall``)."""
-    left_tile: torch.Tensor | None = None
-    """(n,) bool, left the tile this step (needed only by ``off_tile``)."""
-
-
-def _needs(value: torch.Tensor | None, term: str, field: str) -> torch.Tensor:
-    if value is None:
-        raise ValueError(f"the {term} reward term needs RewardContext.{field}")
-    return value
-
-
-OptionalTerm = Callable[[RobotState, RewardContext, RewardConfig], torch.Tensor]
-OPTIONAL_TERMS: dict[str, OptionalTerm] = {
-    "goal_set": lambda rs, ctx, cfg: goal_set_indicator(_needs(ctx.in_goal, "goal_set", "in_goal")),
-    "stance": lambda rs, ctx, cfg: stance_kernel(rs, cfg.stance_pose, cfg.stance_sigma_sq),
-    "upright_spin": lambda rs, ctx, cfg: upright_spin_l2(rs, cfg.upright_spin_tilt_deg),
-    "upright_speed": lambda rs, ctx, cfg: upright_speed_l2(rs, cfg.upright_spin_tilt_deg),
-    "refall": lambda rs, ctx, cfg: refall_event(_needs(ctx.refell, "refall", "refell")),
-    "off_tile": lambda rs, ctx, cfg: off_tile_event(_needs(ctx.left_tile, "off_tile", "left_tile")),
-}
-"""Terms outside Table I, each computed only where its ``RewardConfig`` weight (the field of
-the same name) is nonzero; the default config trains on Table I exactly."""
-EVENT_TERMS = frozenset({"refall", "off_tile"})
-"""Terms paid once per event: weighted w · r, not w · r · dt."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,), plus those of ``OPTIONAL_TERMS`` whose
-    weights are nonzero."""
-    terms = {
+    """Unweighted Table I terms by name, each (n,)."""
+    return {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
         "torques": torque_l2(rs),
@@ -197,15 +146,11 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         "joint_limits": joint_limit_violation(rs, ctx.joint_low, ctx.joint_high),
         "feet_contact": all_feet_contact(rs),
     }
-    for name, term in OPTIONAL_TERMS.items():
-        if getattr(cfg, name) != 0.0:
-            terms[name] = term(rs, ctx, cfg)
-    return terms
 
 
 def reward_weights(cfg: RewardConfig) -> dict[str, float]:
     """Weight of every term, keyed like ``reward_terms``."""
-    weights = {
+    return {
         "orientation": cfg.orientation,
         "vertical_velocity": cfg.vertical_velocity,
         "torques": cfg.torques,
@@ -216,17 +161,14 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
         "joint_limits": cfg.joint_limits,
         "feet_contact": cfg.feet_contact,
     }
-    weights.update({name: getattr(cfg, name) for name in OPTIONAL_TERMS if getattr(cfg, name) != 0.0})
-    return weights
 
 
 def weighted_rewards(
     rs: RobotState, ctx: RewardContext, cfg: RewardConfig, dt: float
 ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
-    """r_total (n,) = Σ_i w_i · r_i · dt, and every weighted term w_i · r_i · dt (n,) by name
-    (``EVENT_TERMS``: w_i · r_i, paid once per event)."""
+    """r_total (n,) = Σ_i w_i · r_i · dt, and every weighted term w_i · r_i · dt (n,) by name."""
     terms = reward_terms(rs, ctx, cfg)
     weights = reward_weights(cfg)
-    weighted = {name: weights[name] * value * (1.0 if name in EVENT_TERMS else dt) for name, value in terms.items()}
+    weighted = {name: weights[name] * value * dt for name, value in terms.items()}
     total = torch.stack(list(weighted.values())).sum(dim=0)
     return total, weighted

@@ -1,5 +1,4 @@
-"""The seed's further factors as command-line flags, shared by ``selfright evaluate`` / ``replay``
-and the diagnostic scripts (``selfright.evaluate.runner.ReplayArgs``).
+"""The seed's further factors as command-line flags, shared by ``selfright evaluate`` and ``replay``.
 
 Torch-free on purpose: ``selfright.cli`` imports it at start-up. Defaults are ``EvalConfig``'s,
 so the benchmark's conditions are stated once.

@@ -105,7 +105,7 @@ def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: in
             states.append(env.state[0].copy())
             rows.append(_trace_row(out.state, out.in_goal, float(env.step_count[0]) * env.control_dt))
 
-        success = rollout_batch(env, policy, slot, np.array([ep_seed]), [cell.context], record, start)
+        success = rollout_batch(env, policy, slot, np.array([ep_seed]), [cell], record, start)
         m = env.metrics(slot)
     finally:
         env.close()
@@ -133,7 +133,7 @@ def write_replay(out_dir: Path, r: Replay, identity: dict[str, Any], cfg: Benchm
     c = r.cell
     write_json(out_dir / "replay.json", {
         **identity, "slope_level": c.slope_level, "roughness_level": c.roughness_level, "slope_pct": c.slope_pct,
-        "roughness_extent_m": c.roughness_extent_m, "context": c.context, "episode": r.episode,
+        "roughness_extent_m": c.roughness_extent_m, "episode": r.episode,
         "episode_seed": r.episode_seed, "success": r.success, "ttr_s": r.ttr_s, "dtr_m": r.dtr_m,
         "diverged": r.diverged, "control_steps": len(r.states) - 1,
         "goal_height_m": r.goal_height_m, "max_tilt_deg": cfg.goal.max_tilt_deg,

@@ -5,21 +5,19 @@ depend on the others in its batch, so a resumed or re-batched run gives identica
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
 
 import numpy as np
 import torch
 from tqdm import tqdm
 
-from selfright.config import BenchmarkConfig, ContextConfig, Motor, to_dict
+from selfright.config import BenchmarkConfig, ContextConfig, to_dict
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
-from selfright.evaluate.factors import FurtherFactors
 from selfright.evaluate.metrics import summarize
 from selfright.machine import machine
 from selfright.evaluate.results import (
@@ -74,15 +72,8 @@ def evaluate_grid(
     out_dir: Path,
     cfg: BenchmarkConfig,
     progress: bool = True,
-    world_for: Callable[[Cell], World] | None = None,
-    worlds_label: str | None = None,
 ) -> EvalResult:
-    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary.
-
-    ``world_for(cell)`` replaces the benchmark's world of each cell (diagnostics: another tile
-    under the same falls; the world's ``cell`` should stay the benchmark's, so the falls and the
-    result rows are the cell's). It needs ``worlds_label``, recorded in the run's identity so a
-    resume never mixes two kinds of world."""
+    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary."""
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
     cells = grid_cells(grid, cfg.terrain)
@@ -91,10 +82,6 @@ def evaluate_grid(
     identity = {"policy": policy_name, "grid": grid, "episodes_per_cell": episodes, "seed": seed, "config": to_dict(cfg)}
     if policy.digest is not None:  # the weights, so a resume never mixes two versions of a named policy
         identity["policy_digest"] = policy.digest
-    if (world_for is None) != (worlds_label is None):
-        raise ValueError("world_for and worlds_label go together")
-    if worlds_label is not None:
-        identity["worlds"] = worlds_label
     check_run_identity(out_dir, identity)
     csv_path = out_dir / "episodes.csv"
     order = {(c.slope_level, c.roughness_level): k for k, c in enumerate(cells)}
@@ -104,7 +91,7 @@ def evaluate_grid(
 
     ctx = context_config(cfg)
     t0 = time.time()
-    worlds: list[World] = [build_world(c, cfg, ctx, seed) if world_for is None else world_for(c) for c in cells]
+    worlds: list[World] = [build_world(c, cfg, ctx, seed) for c in cells]
     rough = [w.tile.roughness() for w in worlds]
     rows = list(existing)
     if jobs:
@@ -130,12 +117,13 @@ def evaluate_grid(
 
 
 def rollout_batch(
-    env: RecoveryEnv, policy: Policy, cell_index: np.ndarray, seeds: np.ndarray, contexts: list[str],
+    env: RecoveryEnv, policy: Policy, cell_index: np.ndarray, seeds: np.ndarray, cells: list[Cell],
     on_step: Callable[[np.ndarray, StepOutput], None] | None = None,
     on_start: Callable[[], None] | None = None,
 ) -> np.ndarray:
-    """Reset env slots ``0..n-1`` to the falls of ``seeds`` on the worlds ``cell_index`` and run
-    ``policy`` until every episode is done; returns which episodes succeeded. ``on_start()``
+    """Reset env slots ``0..n-1`` to the falls of ``seeds`` on the worlds ``cell_index`` (grid
+    cells ``cells``, one per slot) and run ``policy`` until every episode is done; returns which
+    episodes succeeded. ``on_start()``
     runs once the falls have settled, ``on_step(active, out)`` sees each control step's output
     for the slots still running (diagnostics)."""
     if env.cfg.eval.sensor_noise > 0:
@@ -152,109 +140,13 @@ def rollout_batch(
     while len(active):
         obs = env.observe(active, policy.groups)
         with torch.no_grad():
-            actions = policy.act(obs, active, [contexts[i] for i in active])
+            actions = policy.act(obs, active, [cells[i] for i in active])
         out = env.step(actions, active)
         if on_step is not None:
             on_step(active, out)
         success[active[out.succeeded.numpy()]] = True
         active = active[~out.done.numpy()]
     return success
-
-
-@dataclass(frozen=True)
-class ReplayArgs(FurtherFactors):
-    """Which benchmark episodes a diagnostic script replays (the falls of ``selfright evaluate``),
-    under the further factors as ``selfright evaluate`` takes them."""
-
-    policy: str = "flat"
-    """Policy name, file or run folder (as for ``selfright evaluate``)."""
-    grid: str = "flat"
-    """Named grid."""
-    episodes: int = 64
-    """Episodes per cell."""
-    seed: int = 0
-    """Run seed (same episodes as ``selfright evaluate --seed``)."""
-    motor: Motor = "ideal"
-    """Motor model (``RobotConfig.motor``): ``ideal``, ``dcmotor`` or ``envelope``."""
-    torque_envelope: bool = True
-    """A ``dcmotor``- or ``envelope``-trained policy on the ideal servos holds its commands to the DC envelope
-    (``selfright.policies.registry.fit_motor``); off = runs it unchanged."""
-    tile_size_m: float | None = None
-    """Side of each cell's tile (m); ``None`` = the benchmark's (8 m). Same drop square and
-    falls on a larger tile: episodes that roll far keep going instead of failing at the edge
-    (a diagnostic; results on another tile are not the benchmark's)."""
-
-    tilted_policy: str | None = None
-    """A second policy that acts while the trunk is tilted more than ``tilt_deg`` (the
-    composites of ``scripts/policy_variants.py --tilt-deg``); ``None`` = ``policy`` alone."""
-    tilt_deg: float = 45.0
-    """With ``tilted_policy``: the hand-over tilt (deg)."""
-    stance_weight: float = 0.0
-    """> 0: blend the policy's actions this share of the way to the tall stance
-    (``RewardConfig.stance_pose``: hip 0, thigh 0.46, knee −0.92 rad) over ``stance_delay_s`` once the trunk has been upright within
-    ``stance_tilt_deg`` for ``stance_delay_s`` (``scripts/policy_variants.py
-    --pose-upright-weight``); 0 = off."""
-    stance_delay_s: float = 1.0
-    """With ``stance_weight``: the delay, and the ramp, of the blend (s)."""
-    stance_tilt_deg: float = 35.0
-    """With ``stance_weight``: how close to upright counts as upright (deg)."""
-
-    def make_policy(self, cfg: BenchmarkConfig) -> Policy:
-        """``policy``, or its composite with ``tilted_policy``, blended to the stance with ``stance_weight``."""
-        from selfright.policies.registry import make_policy
-
-        policy = make_policy(self.policy, cfg, envelope=self.torque_envelope)
-        if self.tilted_policy is not None:
-            from selfright.policies.stall import TiltSwitch
-            from selfright.policies.variants import Fallback
-
-            policy = Fallback(policy, make_policy(self.tilted_policy, cfg, envelope=self.torque_envelope),
-                              TiltSwitch(self.tilt_deg))
-        if self.stance_weight > 0:
-            from selfright.config import RewardConfig
-            from selfright.policies.pose_blend import stance_action
-            from selfright.policies.variants import PoseUpright
-            from selfright.robots import get_robot
-
-            robot, steps = get_robot(cfg.robot.name), max(1, round(self.stance_delay_s / cfg.sim.control_dt_s))
-            policy = PoseUpright(policy, self.stance_tilt_deg, steps, range(len(robot.joint_names)),
-                                 stance_action(robot, cfg.action, RewardConfig().stance_pose), steps,
-                                 label="stance", weight=self.stance_weight)
-        return policy
-
-    @property
-    def label(self) -> str:
-        """The policy (or composite) for printing."""
-        out = self.policy
-        if self.tilted_policy is not None:
-            out = f"{self.policy} + {self.tilted_policy} (tilted over {self.tilt_deg:g} deg)"
-        if self.stance_weight > 0:
-            out += f" ({self.stance_weight:g} of the way to the stance after {self.stance_delay_s:g} s upright)"
-        return out
-
-    def bench_config(self) -> BenchmarkConfig:
-        """The benchmark's configuration, with ``tile_size_m``, ``motor`` and the further factors if given."""
-        cfg = BenchmarkConfig()
-        cfg = dataclasses.replace(cfg, eval=self.apply(cfg.eval))
-        if self.motor != cfg.robot.motor:
-            cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor=self.motor))
-        if self.tile_size_m is None:
-            return cfg
-        return dataclasses.replace(cfg, terrain=dataclasses.replace(cfg.terrain, tile_size_m=self.tile_size_m))
-
-
-def replay_env(a: ReplayArgs, cfg: BenchmarkConfig) -> tuple[RecoveryEnv, list[Cell]]:
-    """An env over the cells of ``a.grid`` (worlds built as the evaluator builds them)."""
-    cells = grid_cells(a.grid, cfg.terrain)
-    worlds = [build_world(c, cfg, context_config(cfg), a.seed) for c in cells]
-    return RecoveryEnv(cfg, worlds, min(64, a.episodes)), cells
-
-
-def replay_batches(a: ReplayArgs, cell: Cell, batch: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Yields (episode indices (k,), their seeds (k,)) of one cell, ``batch`` episodes at a time."""
-    for b in range(0, a.episodes, batch):
-        eps = np.arange(b, min(b + batch, a.episodes))
-        yield eps, np.array([episode_seed(a.seed, cell, int(e)) for e in eps], dtype=np.int64)
 
 
 def _run_batch(
@@ -264,8 +156,7 @@ def _run_batch(
     """Simulate one batch of episodes to completion; returns their rows."""
     ids = np.arange(len(batch))
     seeds = np.array([episode_seed(seed, cells[k], e) for k, e in batch], dtype=np.int64)
-    contexts = [cells[k].context for k, _ in batch]
-    success = rollout_batch(env, policy, np.array([k for k, _ in batch]), seeds, contexts)
+    success = rollout_batch(env, policy, np.array([k for k, _ in batch]), seeds, [cells[k] for k, _ in batch])
     m = env.metrics(ids)
     rows = []
     for i, (k, e) in enumerate(batch):
@@ -292,7 +183,7 @@ def _summary(identity, cells, worlds, rough, rows) -> dict[str, Any]:
         out_cells.append({
             "slope_level": c.slope_level, "roughness_level": c.roughness_level, "slope_pct": c.slope_pct,
             "slope_deg": c.slope_deg, "roughness_extent_m": c.roughness_extent_m, "roughness_R": rough[k],
-            "friction": worlds[k].context.friction, "context": c.context, **stats,
+            "friction": worlds[k].context.friction, **stats,
         })
     # The machine: rows are byte-identical on one machine, not across CPU generations (README, *Seeds*).
     return {**identity, "machine": machine(), "cells": out_cells, "overall": summarize(rows)}

@@ -9,6 +9,8 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
+from selfright.terrain import Cell
+
 
 class Policy(abc.ABC):
     """A batched controller.
@@ -17,8 +19,8 @@ class Policy(abc.ABC):
     ``reference + ActionConfig.scale_rad · action``, the reference being the standing pose or
     the current joint angles (``ActionConfig.reference``; see ``RecoveryEnv._targets``).
     ``ids`` identify the env slots (for policies that keep per-episode memory) and
-    ``contexts`` name the training context of each env's cell (``flat``/``rough``/``incline``),
-    which only a context multiplexer reads.
+    ``cells`` are the terrain cells the envs run on (``selfright.terrain.Cell``, None outside an
+    evaluation grid), which only the ``sr`` multiplexer reads.
     """
 
     name: str = "policy"
@@ -44,7 +46,7 @@ class Policy(abc.ABC):
         """
 
     @abc.abstractmethod
-    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
+    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, cells: Sequence[Cell | None]) -> torch.Tensor:
         """(k, J) actions for the k envs whose observations are given."""
 
 
@@ -57,7 +59,7 @@ class CallablePolicy(Policy):
         self.name = name
 
     @torch.no_grad()
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         return torch.as_tensor(self.fn(obs[self.group]), dtype=torch.float32)
 
 

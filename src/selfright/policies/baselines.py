@@ -64,7 +64,7 @@ class ZeroPolicy(TargetPolicy):
             self._hold.pop(i, None)
 
     @torch.no_grad()
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         q = joint_angles(obs["student"], self.robot)
         hold = []
         for k, i in enumerate(np.asarray(ids).tolist()):
@@ -90,7 +90,7 @@ class RandomPolicy(Policy):
             self._rng[i] = np.random.default_rng([int(s), 0x5EED])
 
     @torch.no_grad()
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         rows = [self._rng.setdefault(i, np.random.default_rng(i)).uniform(-1, 1, self.nj) for i in np.asarray(ids).tolist()]
         return torch.as_tensor(np.stack(rows), dtype=torch.float32)
 
@@ -158,7 +158,7 @@ class OpenLoopPolicy(TargetPolicy):
         return pose.reshape(-1)
 
     @torch.no_grad()
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         student = obs["student"]
         q = joint_angles(student, self.robot)
         grav = student[:, _GRAV]

@@ -31,6 +31,7 @@ from selfright.policies.actor import (
 )
 from selfright.policies.base import Policy
 from selfright.policies.history import ObsHistory
+from selfright.terrain import Cell
 from selfright.policies.recurrent import HiddenStates
 
 TORCH_SUFFIXES = (".pt", ".pth", ".jit", ".ts")
@@ -77,7 +78,7 @@ class TorchPolicy(_FilePolicy):
         self.module = module
 
     @torch.no_grad()
-    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
+    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, cells: Sequence[Cell | None]) -> torch.Tensor:
         x = self._input(obs, ids)
         if isinstance(self.module, ActorMLP):
             if self._hidden is None:
@@ -100,7 +101,7 @@ class OnnxPolicy(_FilePolicy):
         self.session = session
         self.input_names = [i.name for i in inputs]
 
-    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, contexts: Sequence[str | None]) -> torch.Tensor:
+    def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, cells: Sequence[Cell | None]) -> torch.Tensor:
         """One row per session run, for the batch independence ``TorchPolicy`` explains."""
         x = self._input(obs, ids).detach().cpu().numpy().astype(np.float32)
         feeds = [x] if self._hidden is None else [x, self._hidden.get(ids).numpy().astype(np.float32)]
@@ -165,7 +166,7 @@ def load_torch_actor(p: Path) -> ActorMLP:
     if isinstance(payload, dict) and payload.get("format") == FILE_FORMAT:
         actor = _wrap(p, actor_from_payload, payload)
     elif isinstance(payload, dict) and any(k in payload for k in DEPLOYED_ACTOR_KEYS):
-        from selfright.train.checkpoints import policy_hint
+        from selfright.policies.run_files import policy_hint
 
         hint = policy_hint(p, payload.get("infos"))
         missing = [what for key, what in (("action_reference", "action mapping"), ("motor", "motor model"))

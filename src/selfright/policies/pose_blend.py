@@ -1,5 +1,4 @@
-"""The blend towards a fixed pose once upright, shared by the evaluation variant
-``selfright.policies.variants.PoseUpright`` and the distillation teacher
+"""The blend towards a fixed pose once upright, for the distillation teacher
 ``selfright.train.stance_teacher.StanceTeacher``: per slot, a count of control steps the trunk
 has been upright, and a weight that ramps the actions to the pose once the count passes a delay."""
 
@@ -76,7 +75,7 @@ class LeanedPose:
 
 StanceTarget = torch.Tensor | Callable[[torch.Tensor], torch.Tensor]
 """A stance's actions: fixed (C,), or a law of the trunk's projected gravity (k, 3) → (k, C)
-(``LeanedPose``, ``selfright.policies.level_stance.LevelStanceTarget``)."""
+(``LeanedPose``)."""
 
 
 def target_for(target: StanceTarget, gravity: torch.Tensor) -> torch.Tensor:
@@ -111,16 +110,3 @@ def pose_action(robot, action: ActionConfig, q: np.ndarray) -> np.ndarray:
     if ref is None:
         raise ValueError("a fixed pose needs a fixed action reference (stand / tall), not 'current'")
     return (q - ref) / action.scale_rad
-
-
-def splayed_action(robot, action: ActionConfig, hip_out: float, thigh_front: float, thigh_rear: float,
-                   knee: float) -> np.ndarray:
-    """(J,) the action, under the action mapping ``action``, whose targets turn every hip
-    ``hip_out`` (rad) away from the body (positive abduction on the left legs, negative on the
-    right), the front and rear thighs to ``thigh_front`` and ``thigh_rear`` and the knees to
-    ``knee``, each clipped to its joint's range. Needs a fixed action reference."""
-    q = []
-    for name in robot.joint_names[::3]:  # one name per leg: FR_hip_joint, FL_hip_joint, ...
-        side = 1.0 if name[1] == "L" else -1.0
-        q += [side * hip_out, thigh_front if name[0] == "F" else thigh_rear, knee]
-    return pose_action(robot, action, np.clip(np.asarray(q), robot.joint_low, robot.joint_high))

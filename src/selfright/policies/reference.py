@@ -109,10 +109,10 @@ class ShiftedReference(Policy):
         self.inner.reset(ids, seeds)
 
     @torch.no_grad()
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         ids = np.asarray(ids).tolist()
         took = torch.tensor([i not in self.fresh for i in ids])
         self.fresh.difference_update(ids)
         shifted = {group: in_own_units(x, self.offset, took) for group, x in obs.items()}
-        a = self.inner.act(shifted, ids, contexts)
+        a = self.inner.act(shifted, ids, cells)
         return a + self.offset.to(a.device, a.dtype)

@@ -1,4 +1,4 @@
-"""Policies by name: baselines, shipped learned policies, the ``sr`` multiplexers, or a file."""
+"""Policies by name: baselines, shipped learned policies, the ``sr`` multiplexer, or a file."""
 
 from __future__ import annotations
 
@@ -8,15 +8,13 @@ from pathlib import Path
 from selfright.config import ActionConfig, BenchmarkConfig
 from selfright.policies.base import Policy
 from selfright.policies.baselines import OpenLoopPolicy, RandomPolicy, ZeroPolicy
+from selfright.policies.multiplexer import CONTEXTS
 from selfright.policies.reference import ShiftedReference, reference_offset
 from selfright.robots import get_robot
 
 BASELINES = ("zero", "random", "open-loop")
-CONTEXTS = ("flat", "rough", "incline")
-MULTIPLEXERS = {"sr": "", "sr-sensor-noise": "-sensor-noise"}
-"""The seed's π_SR over the shipped students of the three contexts (``sr``), and over their versions
-trained to read noisy sensors (``sr-sensor-noise``: ``flat-sensor-noise``, ...): name → suffix of
-its members' shipped names."""
+MULTIPLEXER = "sr"
+"""The seed's π_SR over the shipped students of the three contexts (``flat``, ``rough``, ``incline``)."""
 CHECKPOINT_DIR = Path(__file__).resolve().parent.parent / "checkpoints"
 
 
@@ -26,8 +24,9 @@ def shipped_path(name: str) -> Path:
 
 
 def available_policies() -> list[str]:
+    """The names ``make_policy`` knows: baselines, shipped policies and ``sr`` (when its members ship)."""
     shipped = sorted(p.stem for p in CHECKPOINT_DIR.glob("*.pt")) if CHECKPOINT_DIR.exists() else []
-    extra = [m for m, suffix in MULTIPLEXERS.items() if all(shipped_path(c + suffix).exists() for c in CONTEXTS)]
+    extra = [MULTIPLEXER] if all(shipped_path(c).exists() for c in CONTEXTS) else []
     return list(BASELINES) + shipped + extra
 
 
@@ -102,16 +101,13 @@ def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
         return OpenLoopPolicy(robot, cfg.action, cfg.sim.control_dt_s)
     from selfright.policies import learned  # torch-model loading only when needed
 
-    if name in MULTIPLEXERS:
-        members = {c: c + MULTIPLEXERS[name] for c in CONTEXTS}
-        missing = [m for m in members.values() if not shipped_path(m).exists()]
+    if name == MULTIPLEXER:
+        missing = [c for c in CONTEXTS if not shipped_path(c).exists()]
         if missing:
             raise ValueError(f"policy {name!r} needs the shipped policies {', '.join(missing)}, which are not in this install")
         from selfright.policies.multiplexer import ContextMultiplexer
 
-        mux = ContextMultiplexer({c: learned.load_policy_file(shipped_path(m)) for c, m in members.items()})
-        mux.name = name
-        return mux
+        return ContextMultiplexer({c: learned.load_policy_file(shipped_path(c)) for c in CONTEXTS})
     if shipped_path(name).exists():
         return learned.load_policy_file(shipped_path(name))
     if name.removesuffix("-teacher") in CONTEXTS:  # a learned policy by name, not shipped yet
@@ -125,7 +121,7 @@ def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
         return load_user_policy(name, cfg)
     path = Path(name)
     if path.is_dir():  # a training run folder: its latest checkpoint
-        from selfright.train.checkpoints import latest_checkpoint
+        from selfright.policies.run_files import latest_checkpoint
 
         return learned.load_policy_file(latest_checkpoint(path))
     if path.suffix in (".pt", ".jit", ".onnx", ".pth") or path.exists():

@@ -37,7 +37,7 @@ class NoisySensors(Policy):
         self._noise.reset(ids, seeds, "NoisySensors")
         self.inner.reset(ids, seeds)
 
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         d = len(self.std)
         noise = self.std * self._noise.draw(ids, d)
         noisy = dict(obs)
@@ -45,4 +45,4 @@ class NoisySensors(Policy):
             noisy["student"] = obs["student"] + noise
         if "teacher" in obs:
             noisy["teacher"] = torch.cat([obs["teacher"][:, :d] + noise, obs["teacher"][:, d:]], dim=1)
-        return self.inner.act(noisy, ids, contexts)
+        return self.inner.act(noisy, ids, cells)

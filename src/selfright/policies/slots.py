@@ -1,7 +1,7 @@
 """Per-slot buffers of deployed policies: a tensor with one row per env slot that grows to
 the largest slot index seen (evaluation hands out slot ids; training has a fixed number).
-Shared by ``ObsHistory``, ``HiddenStates``, ``StallSwitch``, ``TiltSwitch``, ``Smoothed`` and
-``TorqueEnvelope``; ``SlotNoise`` draws per-episode Gaussian noise for ``Noisy`` and ``NoisySensors``."""
+Shared by ``ObsHistory``, ``StallSwitch``, ``TiltSwitch`` and ``TorqueEnvelope``; ``SlotNoise``
+draws per-episode Gaussian noise for ``NoisySensors``."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def grown(buf: torch.Tensor, slots: torch.Tensor, fill: float | bool = 0) -> tor
 
 class LastActions:
     """Per env slot: the last action a policy wrapper passed on, and whether the slot's episode
-    has taken none yet (``fresh``). Shared by ``Smoothed`` and ``TorqueEnvelope``."""
+    has taken none yet (``fresh``), for ``TorqueEnvelope``."""
 
     def __init__(self, num_joints: int):
         self.last = torch.zeros(0, num_joints)

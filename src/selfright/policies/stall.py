@@ -1,7 +1,6 @@
-"""Hand-over rules: per env slot, does a second policy act instead of the first. Shared by
-the evaluation-time ``selfright.policies.variants.Fallback`` and the distillation teacher
-``selfright.train.fallback_teacher.FallbackTeacher``; both call ``reset(slots)`` at an
-episode's start and ``step(x, slots)`` every control step.
+"""Hand-over rules: per env slot, does a second policy act instead of the first. Their users
+(the distillation teachers of ``selfright.train``) call ``reset(slots)`` at an episode's start
+and ``step(x, slots)`` every control step.
 
 ``TiltSwitch``: the second acts whenever the robot is tilted more than ``tilt_deg`` from
 upright (the IMU's projected gravity). A function of the current observation alone, so a

@@ -66,7 +66,7 @@ class TorqueEnvelope(TargetPolicy):
         self._memory.reset(ids)
 
     @torch.no_grad()
-    def act(self, obs, ids, contexts):
+    def act(self, obs, ids, cells):
         m = self._memory
         t = m.slots(ids)
         vel, prev = self.cols
@@ -76,7 +76,7 @@ class TorqueEnvelope(TargetPolicy):
             x = x.clone()
             x[took, prev] = m.last[t][took].to(x.dtype)
             own[g] = x
-        a = self.inner.act(own, ids, contexts)
+        a = self.inner.act(own, ids, cells)
         mine = a.detach().float().cpu()
         m.last[t], m.fresh[t] = mine, False
         s = obs["student"].float().cpu()

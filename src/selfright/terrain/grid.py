@@ -10,7 +10,7 @@ from selfright.config import TerrainConfig
 
 @dataclass(frozen=True, kw_only=True)
 class Cell:
-    """One context of an evaluation grid."""
+    """One cell of an evaluation grid: a slope and a roughness level."""
 
     slope_level: int
     """Slope level (0 = flat, each level adds ``TerrainConfig.slope_step_pct`` of grade)."""
@@ -20,8 +20,6 @@ class Cell:
     """Grade of the tile (%), rise over run × 100."""
     roughness_extent_m: float
     """Peak-to-peak vertical extent of the roughness noise (m)."""
-    context: str | None = None
-    """Training context whose policy the ``sr`` multiplexer uses here (flat, rough, incline)."""
 
     @property
     def slope_deg(self) -> float:
@@ -49,43 +47,15 @@ def check_levels(slope_level: int, roughness_level: int, cfg: TerrainConfig) -> 
         )
 
 
-def make_cell(slope_level: int, roughness_level: int, cfg: TerrainConfig, context: str | None = None) -> Cell:
+def make_cell(slope_level: int, roughness_level: int, cfg: TerrainConfig) -> Cell:
+    """The cell of these levels (``ValueError`` when out of range)."""
     check_levels(slope_level, roughness_level, cfg)
     return Cell(
         slope_level=slope_level,
         roughness_level=roughness_level,
         slope_pct=slope_pct(slope_level, cfg),
         roughness_extent_m=roughness_extent(roughness_level, cfg),
-        context=context,
     )
-
-
-INCLINE_SWITCH_DEG = 15.0
-"""π_SR hands cells sloped at least this much to π_INCLINE (its 20° training slope is the nearest)."""
-INCLINE_ROUGHNESS_BELOW = 7
-"""... when their roughness level is below this; rougher sloped cells go to π_ROUGH."""
-
-
-def _context_of(slope_level: int, roughness_level: int, cfg: TerrainConfig) -> str:
-    """Which specialised policy the seed's multiplexer picks for a grid cell.
-
-    Rule (a documented choice; the seed leaves the switch implicit): cells sloped at least
-    ``INCLINE_SWITCH_DEG`` with roughness level below ``INCLINE_ROUGHNESS_BELOW`` use π_INCLINE,
-    else cells with roughness level ≥ 1 use π_ROUGH, else π_FLAT. The roughness cut was chosen
-    on the members' own evaluations on the paper grid with seed 1 (``scripts/multiplexer_rule.py``:
-    26.9 % against 24.6 % for π_INCLINE at every roughness, levels 4–9 within 0.2 points) and
-    checked on seed 0 (README, *Results*); until 2026-12-06 π_INCLINE took every sloped cell.
-    """
-    return sr_context(make_cell(slope_level, roughness_level, cfg).slope_deg, roughness_level)
-
-
-def sr_context(slope_deg: float, roughness_level: int, switch_deg: float = INCLINE_SWITCH_DEG,
-               roughness_below: int = INCLINE_ROUGHNESS_BELOW) -> str:
-    """The member π_SR's rule (``_context_of``) picks for a cell of this slope and roughness
-    level; other thresholds score other rules (``scripts/multiplexer_rule.py``)."""
-    if slope_deg >= switch_deg and roughness_level < roughness_below:
-        return "incline"
-    return "rough" if roughness_level >= 1 else "flat"
 
 
 GRIDS = ("tiny", "quick", "paper", "flat", "rough", "incline")
@@ -109,12 +79,12 @@ def grid_cells(name: str, cfg: TerrainConfig) -> list[Cell]:
     elif name == "paper":
         pairs = [(s, r) for s in range(cfg.num_slope_levels) for r in range(cfg.num_roughness_levels)]
     elif name == "flat":
-        return [make_cell(0, 0, cfg, "flat")]
+        return [make_cell(0, 0, cfg)]
     elif name == "rough":
-        return [make_cell(0, r, cfg, "rough") for r in ROUGH_GRID_LEVELS if r < cfg.num_roughness_levels]
+        return [make_cell(0, r, cfg) for r in ROUGH_GRID_LEVELS if r < cfg.num_roughness_levels]
     elif name == "incline":
         pct = 100.0 * math.tan(math.radians(INCLINE_DEG))
-        return [Cell(slope_level=-1, roughness_level=0, slope_pct=pct, roughness_extent_m=0.0, context="incline")]
+        return [Cell(slope_level=-1, roughness_level=0, slope_pct=pct, roughness_extent_m=0.0)]
     else:
         raise ValueError(f"unknown grid {name!r}; choose one of: {', '.join(GRIDS)}")
-    return [make_cell(s, r, cfg, _context_of(s, r, cfg)) for s, r in pairs]
+    return [make_cell(s, r, cfg) for s, r in pairs]

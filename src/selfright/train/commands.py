@@ -24,13 +24,13 @@ class TrainArgs:
     out: Path
     """Run folder: checkpoints, tensorboard logs, train_meta.json."""
     role: Role = "teacher"
-    """teacher: PPO on the teacher observations; student: distillation from --teacher;
-    student-ppo: PPO on a distilled student (--init-from) with --teacher's privileged critic."""
+    """teacher: PPO on the teacher observations; student: distillation from --teacher."""
     context: Context = "flat"
     """Training context: flat plane, rough level ground, or 20° incline."""
     teacher: Path | None = None
-    """Teacher run folder (its latest checkpoint) or checkpoint file; needed for --role student
-    and student-ppo (a PPO run checkpoint: its critic and action std start the student's PPO)."""
+    """Teacher run folder (its latest checkpoint) or checkpoint file; needed for --role student.
+    A student run or checkpoint here labels with that student's actions (with
+    --train.distillation.stance-ramp-s: blended to a stance)."""
     envs: int = 64
     """Parallel environments (64–256 suit a few CPU cores)."""
     iterations: int = 10_000
@@ -39,12 +39,9 @@ class TrainArgs:
     """Continue the run in --out from its latest checkpoint."""
     init_from: Path | None = None
     """Teacher: start a new run from another teacher's weights (actor, critic, observation
-    normaliser; fresh optimiser, iteration 0), e.g. rough/incline teachers from the flat one.
-    Student-ppo: the distilled student to go on from (a student run or checkpoint, a policy
-    file, or a shipped name such as incline). Student with --train.distillation.stance-ramp-s:
-    the student to start as (its network and history) instead of a copy of the --teacher
-    student, e.g. one trained under --train.randomization.sensor-noise while the labels come from
-    a student trained on exact sensors (labels always read the exact sensors)."""
+    normaliser; fresh optimiser, iteration 0), e.g. a DC-motor teacher from an ideal-servo one.
+    Student labelled by a --teacher student: the student to start as (its network and history)
+    instead of a copy of the --teacher student."""
     init_optimizer: bool = False
     """Teacher with --init-from: also take the source's optimiser state and learning rate, so
     that fine-tuning goes on at the rate the source ended at (the adaptive schedule may have
@@ -69,13 +66,10 @@ class TrainArgs:
     ``selfright evaluate`` puts on a DC-trained policy, so the policy trains as it will be
     scored on the benchmark's servos. Evaluate with the same ``--motor`` (a ``dcmotor`` or
     ``envelope`` policy on the default ideal servos gets the envelope automatically)."""
-    motor_speed_rad_s: float | None = None
-    """With ``--motor dcmotor`` or ``envelope``: the speed (rad/s) at which the torque falls to 0; None = the
-    robot's rated speed (21 rad/s on the A1). Faster values approach the ideal servos."""
     joint_stop_timeconst_s: float = RobotConfig.joint_stop_timeconst_s
     """Stiffness of the joints' hard stops (``RobotConfig.joint_stop_timeconst_s``, s): the
-    benchmark's 0.01 by default; 0.02 is MuJoCo's softer default, which the runs before
-    2026-12-04 trained with (a training choice only: ``selfright evaluate`` uses 0.01)."""
+    benchmark's 0.01 by default; 0.02 is MuJoCo's softer default, which the older runs of the
+    shipped lineages trained with (a training choice only: ``selfright evaluate`` uses 0.01)."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
@@ -94,30 +88,10 @@ class ExportArgs:
     """Policy file output (.pt, weights_only-loadable); default: the ONNX path with suffix .pt."""
 
 
-SAFE_STUDENT_PPO_LR = 1e-4
-
-
-def start_warnings(args: TrainArgs) -> list[str]:
-    """Settings that are allowed but known to go wrong, said before a run starts."""
-    out = []
-    lr = args.train.ppo.learning_rate
-    if args.role == "student-ppo" and not args.resume and lr > SAFE_STUDENT_PPO_LR:
-        out.append(
-            f"--role student-ppo at --train.ppo.learning-rate {lr:g}: the actor's first update runs at this "
-            f"rate, which has wrecked distilled students (a 512-256-128 rough student fell from 80 % to 2 % on "
-            f"validation within 130 iterations); {SAFE_STUDENT_PPO_LR:g} is safe"
-        )
-    return out
-
-
 def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
     """Run ``selfright train``; returns the final checkpoint. User errors raise ``ValueError``."""
-    import sys
-
     from selfright.train.runner import RunSpec, run_training
 
-    for w in start_warnings(args):
-        print(f"selfright: warning: {w}", file=sys.stderr)
     spec = RunSpec(
         role=args.role,
         context=args.context,
@@ -142,8 +116,7 @@ def bench_config(args: TrainArgs) -> BenchmarkConfig:
     """The benchmark configuration a ``selfright train`` run trains in: the defaults with its
     action reference, motor model and joint stops."""
     return BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
-                           robot=RobotConfig(motor=args.motor, motor_speed_rad_s=args.motor_speed_rad_s,
-                                             joint_stop_timeconst_s=args.joint_stop_timeconst_s))
+                           robot=RobotConfig(motor=args.motor, joint_stop_timeconst_s=args.joint_stop_timeconst_s))
 
 
 def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[ActorMLP, Path]:
@@ -154,7 +127,7 @@ def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[
     import torch
 
     from selfright.policies.actor import FILE_FORMAT, actor_from_checkpoint, actor_from_payload
-    from selfright.train.checkpoints import latest_checkpoint, policy_hint
+    from selfright.policies.run_files import latest_checkpoint, policy_hint
 
     if not checkpoint.exists():
         raise ValueError(f"checkpoint {checkpoint} not found; pass a model_<it>.pt, a run folder, a policy file or a shipped "

@@ -33,39 +33,26 @@ from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.evaluate.results import factor_flags
 from selfright.env.goal import goal_height_m
 from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
-from selfright.policies.level_stance import LevelStanceTarget
-from selfright.policies.pose_blend import LeanedPose, lean_gains, stance_action
+from selfright.policies.pose_blend import stance_action
 from selfright.policies.reference import reference_offset
-from selfright.policies.stall import ScanSwitch, StallSwitch, hand_over_rule
-from selfright.train.checkpoints import (
+from selfright.policies.stall import hand_over_rule
+from selfright.policies.run_files import (
     CHECKPOINT_RE,
     META_FILE,
     latest_checkpoint,
     list_checkpoints,
     read_meta,
-    with_std_head,
 )
-from selfright.train.config import LABEL_GROUP, PolicyConfig, Role, TrainConfig, student_group
-from selfright.train.contexts import make_training_worlds, training_bench
-from selfright.train.ema import attach_weight_average
+from selfright.train.config import LABEL_GROUP, PolicyConfig, Role, TrainConfig
+from selfright.train.contexts import make_training_worlds
 from selfright.train.fallback_teacher import FallbackTeacher
-from selfright.train.stance_teacher import StanceTeacher, StillHold
-from selfright.train.student_ppo import (
-    attach_critic_warmup,
-    is_student,
-    load_student,
-    student_ppo_start,
-    student_train_config,
-)
-from selfright.train.override_mask import attach_override_mask
+from selfright.train.label_student import is_student, load_student, student_train_config
+from selfright.train.stance_teacher import StanceTeacher
 from selfright.train.run_lock import run_lock
-from selfright.train.upright_override import load_upright_override
 from selfright.train.vecenv import RecoveryVecEnv
-from selfright.train.velocity_estimator import attach_velocity_estimator
 
 PROGRESS_EVERY_S = 10.0
 """Seconds between one-line progress reports (the first iterations always report)."""
@@ -87,7 +74,7 @@ class RunSpec:
     physics_threads: int
     init_from: Path | None = None
     """Weights to start a new run from: a teacher's (a fine-tuning curriculum), or a student's
-    (``student-ppo``, or a student labelled by another student that starts as a third one)."""
+    (a student labelled by another student that starts as a third one)."""
     init_optimizer: bool = False
     """With a teacher's ``init_from``: load its optimiser state and learning rate too."""
     torch_threads: int
@@ -100,19 +87,13 @@ class RunSpec:
 
 
 # ------------------------------------------------------------------ checkpoints
-def teacher_policy_config(ckpt: Path, fallback: PolicyConfig,
-                          critic_source: bool = False) -> tuple[PolicyConfig, dict[str, Any]]:
+def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyConfig, dict[str, Any]]:
     """The network config of a trained teacher, from its run's ``train_meta.json``, else read off
-    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta.
-    ``critic_source``: the checkpoint only lends its critic and action std (``--role
-    student-ppo``), so a student-ppo run is accepted too; its config is then its critic's."""
+    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta."""
     meta = read_meta(ckpt.parent)
-    role = meta.get("role", "teacher")
-    lends_critic = critic_source and role == "student-ppo"
-    if role != "teacher" and not lends_critic:
-        extra = " or, for --role student-ppo, a student-ppo run" if critic_source else ""
-        raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher){extra}")
-    pol = meta["teacher_policy"] if lends_critic else meta.get("policy")  # a student-ppo run's critic network
+    if meta.get("role", "teacher") != "teacher":
+        raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher)")
+    pol = meta.get("policy")
     if pol:
         return (
             replace(
@@ -120,7 +101,6 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig,
                 hidden_dims=tuple(pol["hidden_dims"]),
                 activation=pol["activation"],
                 obs_normalization=bool(pol["obs_normalization"]),
-                state_dependent_std=bool(pol.get("state_dependent_std", False)),
             ),
             meta,
         )
@@ -132,24 +112,6 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig,
     return replace(fallback, hidden_dims=hidden, obs_normalization="obs_normalizer._mean" in sd), meta
 
 
-def _warn_symmetry_on_init(train: TrainConfig, source_meta: dict[str, Any], init: Path) -> None:
-    """Warn when symmetry augmentation starts from weights trained without it: rsl_rl gives a
-    mirrored sample the log-probability of its original, which is right only for a mirror-
-    symmetric policy. The shipped flat teacher is far from one (its actions on mirrored
-    observations differ from its mirrored actions by as much as the actions themselves), and
-    fine-tuning it with augmentation took its episode return from 54 to −61 in 50 iterations."""
-    if not train.ppo.symmetry_augmentation:
-        return
-    if source_meta.get("train_config", {}).get("ppo", {}).get("symmetry_augmentation"):
-        return
-    print(
-        f"warning: --init-from {init} was trained without symmetry augmentation; with an asymmetric policy "
-        "the augmented samples' probability ratios are wrong and the policy can collapse. Prefer training "
-        "from scratch with --train.ppo.symmetry-augmentation, or symmetrise first with --train.ppo.mirror-loss-coef."
-    )
-
-
-# ---------------------------------------------------------------------- logger
 class _StopTraining(Exception):
     """Raised from the per-iteration hook to leave ``runner.learn`` after a clean save."""
 
@@ -199,7 +161,7 @@ class TrainingRun:
             raise ValueError(f"--iterations must be ≥ 0 (got {s.iterations})")
         if s.iterations == 0 and not s.resume:
             raise ValueError("--iterations 0: a new run needs at least 1 iteration to train")
-        if s.role in ("student", "student-ppo") and s.teacher is None:
+        if s.role == "student" and s.teacher is None:
             raise ValueError(f"--role {s.role} needs --teacher RUN_DIR (a trained teacher run or checkpoint)")
         if s.teacher is not None and not s.teacher.exists():
             raise ValueError(f"teacher {s.teacher} not found; pass a teacher run folder or model_<it>.pt")
@@ -208,50 +170,19 @@ class TrainingRun:
         has_ckpt = bool(list_checkpoints(self.out))
         if s.resume and not has_ckpt:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
-        ep = s.train.episode
-        if ep.upright_policy is not None and s.role != "teacher":
-            raise ValueError("--train.episode.upright-policy trains a teacher (an escape specialist) inside a composite")
-        if ep.upright_policy is not None and ep.tilted_policy is not None:
-            raise ValueError("give --train.episode.upright-policy or --train.episode.tilted-policy, not both")
-        overridden = ep.upright_policy is not None or ep.tilted_policy is not None
-        if ep.upright_masked and (not overridden or s.role != "teacher"):
-            raise ValueError("--train.episode.upright-masked masks PPO's overridden steps: it needs a teacher run "
-                             "with --train.episode.upright-policy or --train.episode.tilted-policy")
         d = s.train.distillation
-        if d.rough_teacher is not None and (s.role != "student" or d.fallback_teacher is None):
-            raise ValueError("--train.distillation.rough-teacher shares the upright states with the --teacher of a student "
-                             "run that has --train.distillation.fallback-teacher")
         if d.stance_ramp_s > 0 and s.role != "student":
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
-                             "(--role student, --teacher STUDENT, no fallback teacher, no GRU)")
-        if self.labels_from_student and (d.fallback_teacher is not None or d.student_gru > 0):
+                             "(--role student, --teacher STUDENT, no fallback teacher)")
+        if self.labels_from_student and d.fallback_teacher is not None:
             raise ValueError("a student labelled by another student (--teacher STUDENT"
                              + (", --train.distillation.stance-ramp-s" if d.stance_ramp_s > 0 else "")
-                             + ") is one feed-forward network: no fallback teacher, no GRU")
-        if d.hold_after_s > 0 and not self.labels_from_student:
-            raise ValueError("--train.distillation.hold-after-s holds a student's own labels: it needs --role student "
-                             "and --teacher STUDENT (a student run, checkpoint or policy)")
-        if d.rescue_student is not None and s.train.randomization.active_sensor_noise > 0:
-            raise ValueError("--train.distillation.rescue-student reads the student observation, which "
-                             "--train.randomization.sensor-noise reaches; its labels would be noisy")
-        if d.rescue_student is not None and d.stance_ramp_s <= 0:
-            raise ValueError("--train.distillation.rescue-student labels a stance student's stalls: it needs "
-                             "--train.distillation.stance-ramp-s (and --teacher STUDENT)")
-        if d.velocity_estimator and (s.role != "student" or d.student_gru > 0):
-            raise ValueError("--train.distillation.velocity-estimator is for feed-forward students (--role student, "
-                             "no --train.distillation.student-gru)")
-        if s.role == "student-ppo":
-            if s.init_from is None and not s.resume:
-                raise ValueError("--role student-ppo needs --init-from STUDENT (a distilled student run, policy file or name)")
-            if ep.upright_policy is not None or ep.tilted_policy is not None:
-                raise ValueError("--role student-ppo trains the whole student; drop --train.episode.upright/tilted-policy")
-            if s.train.ppo.symmetry_augmentation or s.train.ppo.mirror_loss_coef:
-                raise ValueError("symmetry augmentation mirrors the teacher observations; not with --role student-ppo")
+                             + ") has one teacher: no fallback teacher")
         if s.init_optimizer and (s.init_from is None or s.role != "teacher"):
             raise ValueError("--init-optimizer goes with a teacher's --init-from (the optimiser of the source run)")
         if s.init_from is not None:
             if s.role == "student" and not self.labels_from_student:
-                raise ValueError("--init-from is for teachers, student-ppo runs and students labelled by another "
+                raise ValueError("--init-from is for teachers and students labelled by another "
                                  "student (--teacher STUDENT); a student of a teacher starts afresh")
             if s.resume:
                 raise ValueError("--init-from starts a new run; drop --resume (a resumed run keeps its own weights)")
@@ -281,10 +212,6 @@ class TrainingRun:
         self.teacher_ckpt = latest_checkpoint(s.teacher) if s.teacher is not None else None
         self.init_ckpt: Path | None = None
         self.init_student = None
-        if s.role == "student-ppo":  # the actor is the student's network, with its history
-            self.init_student = load_student(s.init_from if s.init_from is not None else self.resume_ckpt)
-            s = self.spec = replace(s, train=student_train_config(s.train, self.init_student))
-            self._check_student_mapping(self.init_student)
         teacher_policy, teacher_meta = (None, {})
         self.label_student = None
         if self.labels_from_student:
@@ -303,9 +230,8 @@ class TrainingRun:
                 self.init_student = load_student(self.resume_ckpt, "--resume")
             s = self.spec = replace(s, train=student_train_config(s.train, self.init_student or self.label_student))
             teacher_policy = s.train.policy  # (rsl_rl's own teacher is built, then replaced by StanceTeacher)
-        elif s.role in ("student", "student-ppo"):
-            teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy,
-                                                                 critic_source=s.role == "student-ppo")
+        elif s.role == "student":
+            teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
             if teacher_meta.get("context") not in (None, s.context):
                 print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
             teacher_ref = (teacher_meta.get("policy") or {}).get("action_reference", "stand")
@@ -318,19 +244,13 @@ class TrainingRun:
 
         start_it = self._saved_iteration(self.resume_ckpt) + 1 if self.resume_ckpt else 0
         torch.manual_seed(s.seed + start_it)
-        bench = training_bench(s.bench, s.train.episode)  # validation keeps s.bench
+        bench = s.bench
         worlds = make_training_worlds(s.context, bench, s.seed, s.train.episode)
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
         self.env = RecoveryVecEnv(
             bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
             device=s.device, label_history=self.label_student.meta.obs_history if self.label_student is not None else 0,
         )
-        ep = s.train.episode
-        frozen, side = (ep.upright_policy, "upright") if ep.upright_policy is not None else (ep.tilted_policy, "tilted")
-        if frozen is not None:
-            self.env.action_override = load_upright_override(
-                Path(frozen), ep.upright_tilt_deg, s.num_envs, self.env.env.robot, s.bench.action, side,
-            )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
         runner_cls = DistillationRunner if s.role == "student" else OnPolicyRunner
         with contextlib.redirect_stdout(io.StringIO()):  # rsl_rl prints the model layouts
@@ -341,14 +261,6 @@ class TrainingRun:
             is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
             device=r.device, hook=self._on_iteration,
         )
-        if self.env.action_override is not None and ep.upright_masked:
-            attach_override_mask(r.alg, self.env.action_override)
-        if s.role != "student" and self.resume_ckpt is None:
-            attach_critic_warmup(r.alg, s.train.ppo.critic_warmup_iterations)
-        if s.role == "student" and s.train.distillation.velocity_estimator:
-            attach_velocity_estimator(r.alg, s.train.distillation.estimator_learning_rate, s.seed + start_it)
-        if s.role == "student" and s.train.distillation.ema_decay > 0:  # after the estimator: averages its update too
-            attach_weight_average(r.alg, s.train.distillation.ema_decay)
         fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
         if fallback is not None:
             self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
@@ -362,21 +274,14 @@ class TrainingRun:
         elif s.role == "student":
             if fallback is None and self.label_student is None:  # (else the teachers are loaded above)
                 r.load(str(self.teacher_ckpt), map_location=s.device)  # loads the teacher only (rsl_rl: from an RL checkpoint)
-        elif s.role == "student-ppo":
-            teacher = torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)
-            r.alg.load(student_ppo_start(self.init_student.to(s.device), teacher), {"actor": True, "critic": True}, True)
-            self.init_ckpt = s.init_from  # as given: a run, a file or a shipped policy's name
         elif s.init_from is not None:
             init = latest_checkpoint(s.init_from)
             _, init_meta = teacher_policy_config(init, s.train.policy)  # refuses student runs
             source = torch.load(init, map_location=self.spec.device, weights_only=False)
-            if s.train.policy.state_dependent_std:
-                source["actor_state_dict"] = with_std_head(source["actor_state_dict"])
-            elif not any(k.startswith("distribution.") for k in source["actor_state_dict"]):
-                raise ValueError(f"--init-from {init} has a state-dependent action std; add --train.policy.state-dependent-std")
+            if not any(k.startswith("distribution.") for k in source["actor_state_dict"]):
+                raise ValueError(f"--init-from {init} has a state-dependent action std, which selfright train does not build")
             r.alg.load(source, {"actor": True, "critic": True, "optimizer": s.init_optimizer}, True)
             self.init_ckpt = init
-            _warn_symmetry_on_init(s.train, init_meta, init)
             if s.train.recenter_on_init:
                 moved = _recenter_constant_features(r.alg, self.env.get_observations())
                 if moved and not s.quiet:
@@ -407,10 +312,6 @@ class TrainingRun:
             except RuntimeError as e:
                 raise ValueError(f"--teacher {self.teacher_ckpt}: {e}") from None
         robot = self.env.env.robot
-        if d.rough_teacher is not None:  # (its weights are in a resumed checkpoint too, as the fallback's)
-            rough, rough_offset = self._second_teacher(Path(d.rough_teacher), "rough-teacher")
-            primary = FallbackTeacher(primary, rough, s.num_envs, ScanSwitch(d.rough_scan_std_m, robot.num_joints),
-                                      rough_offset)
         second, offset = self._second_teacher(path, "fallback-teacher")
         switch = hand_over_rule(d.fallback_tilt_deg, d.stall_s, d.fallback_s, s.bench.sim.control_dt_s,
                                 goal_height_m(s.bench.goal, robot.leg_length_m), robot.num_joints)
@@ -426,31 +327,11 @@ class TrainingRun:
         robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
         base = self.label_student.to(s.device).eval()
         target = None
-        if d.stance_ramp_s > 0 and d.stance_level:
-            target = LevelStanceTarget(d.stance_level_law, robot, s.bench.action)
-        elif d.stance_ramp_s > 0:
+        if d.stance_ramp_s > 0:
             target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
-            if any(d.stance_lean):
-                target = LeanedPose(target, lean_gains(robot, d.stance_lean, scale_rad=s.bench.action.scale_rad))
-        rescue = {}
-        if d.rescue_student is not None:
-            flag = "--train.distillation.rescue-student"
-            net = load_student(Path(d.rescue_student), flag)
-            if net.meta.obs_history not in (1, d.student_history):
-                raise ValueError(f"{flag} reads {net.meta.obs_history} frames; the env stacks 1 and {d.student_history}")
-            mapping = (net.meta.action_reference or s.bench.action.reference, net.meta.action_scale_rad)
-            offset = reference_offset(robot, mapping, s.bench.action)
-            rescue = dict(rescue=net.to(s.device).eval(), rescue_group=student_group(net.meta.obs_history),
-                          rescue_switch=StallSwitch(round(d.stall_s / dt), round(d.rescue_s / dt), None, robot.num_joints),
-                          rescue_offset=offset)
-        hold = None
-        if d.hold_after_s > 0:
-            bar = d.hold_height_m if d.hold_height_m is not None else goal_height_m(s.bench.goal, robot.leg_length_m)
-            hold = StillHold(s.num_envs, robot.num_joints, max(1, round(d.hold_after_s / dt)), bar, d.hold_speed_mps,
-                             d.hold_joint_speed_rad_s)
         teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
                                 round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
-                                weight=d.stance_weight, hold=hold, **rescue)
+                                weight=d.stance_weight)
         alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
         alg.teacher_loaded = True
         if load_student_weights:
@@ -499,20 +380,20 @@ class TrainingRun:
     # -------------------------------------------------------------- metadata
     def policy_meta(self) -> dict[str, Any]:
         pol = self.spec.train.policy
-        student = self.spec.role != "teacher"  # a student-ppo actor deploys as a student
+        student = self.spec.role == "student"
         return {
             "obs_group": "student" if student else "teacher",
             "hidden_dims": list(pol.hidden_dims),
             "activation": pol.activation,
             "obs_normalization": pol.obs_normalization,
-            "state_dependent_std": pol.state_dependent_std and self.spec.role == "teacher",
+            "state_dependent_std": False,
             "role": "student" if student else "teacher",
             "context": self.spec.context,
             "action_reference": self.spec.bench.action.reference,
             "action_scale_rad": self.spec.bench.action.scale_rad,
             "obs_history": self.spec.train.distillation.student_history if student else 1,
-            "gru_dim": self.spec.train.distillation.student_gru if student else 0,
-            "estimator_dims": list(self.spec.train.distillation.velocity_estimator) if student else [],
+            "gru_dim": 0,
+            "estimator_dims": [],
             # the motor model it trains with: a checkpoint copied out of its run still runs as trained
             "motor": self.spec.bench.robot.motor,
             "motor_speed_rad_s": self.spec.bench.robot.motor_speed_rad_s or 0.0,
@@ -585,19 +466,7 @@ class TrainingRun:
             return
         from selfright.train import validation
 
-        ep = self.spec.train.episode
-        partner = None
-        if self.spec.role == "teacher" and (ep.upright_policy or ep.tilted_policy):
-            side = "upright" if ep.upright_policy else "tilted"
-            partner = validation.Partner(ep.upright_policy or ep.tilted_policy, side, ep.upright_tilt_deg)
         bench = self.spec.bench
-        noise = self.spec.train.randomization.active_sensor_noise
-        if noise > 0 and self.spec.role != "teacher":  # a student is chosen on the sensors it trained for
-            bench = replace(bench, eval=replace(bench.eval, sensor_noise=noise))
-        if v.wall_gap_ratio is not None:
-            bench = replace(bench, eval=replace(bench.eval, wall_gap_ratio=v.wall_gap_ratio))
-        if v.ground_timeconst_s is not None:
-            bench = replace(bench, eval=replace(bench.eval, ground_timeconst_s=v.ground_timeconst_s))
         t = time.time()
         # Loading the checkpoint builds networks from torch's global generator, which also draws
         # the training's action noise; checkpoints fall on a wall-clock timer, so without the fork
@@ -606,7 +475,7 @@ class TrainingRun:
         with torch.random.fork_rng(devices=cuda):
             score = validation.evaluate_checkpoint(
                 ckpt, iteration=it, env_steps=env_steps, grid=v.grid or self.spec.context, episodes=v.episodes,
-                seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=bench, partner=partner,
+                seed=v.seed, out_dir=self.out / "validation" / ckpt.stem, bench=bench,
             )
         best = validation.record(self.out, score, ckpt)
         writer = self.runner.logger.writer
@@ -615,11 +484,8 @@ class TrainingRun:
         if not self.spec.quiet:
             print(
                 f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}"
-                + (f" {partner.label}" if partner else "")
                 + f": {score.successes}/{score.episodes} "
                 f"= {100 * score.success_rate:.1f} % (seed {v.seed}"
-                + (f", sensor noise x{bench.eval.sensor_noise:g}" if bench.eval.sensor_noise > 0 else "")
-                + "".join(f", {words}" for _, words in factor_flags(to_dict(bench.eval)))
                 + f", {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
                 flush=True,

@@ -15,7 +15,8 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from selfright.config import ContextConfig, RewardConfig, RobotConfig
+from selfright.config import ContextConfig, RobotConfig
+from selfright.env.rewards import RewardConfig
 from selfright.evaluate.results import factor_flags, recorded_sensor_noise
 from selfright.policies.registry import CHECKPOINT_DIR
 
@@ -73,7 +74,7 @@ def checkpoint_meta(run: Path) -> dict[str, Any]:
     those numbers are not known for that checkpoint."""
     import torch
 
-    from selfright.train.checkpoints import latest_checkpoint, read_meta
+    from selfright.policies.run_files import latest_checkpoint, read_meta
 
     folder = run.parent if run.is_file() else run
     meta = read_meta(folder)
@@ -319,10 +320,7 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
     return "\n".join([*lines[:i], *success_lines(name, summary), f"  - *Before {why}*{before}", *lines[i + 2:]]) + "\n"
 
 
-OWN_WORDS = (
-    "goal_set", "target_height_m", "stance", "stance_pose", "stance_sigma_sq", "upright_spin", "upright_spin_tilt_deg",
-    "upright_speed", "refall", "refall_tilt_deg", "off_tile",
-)
+OWN_WORDS = ("target_height_m",)
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
 
@@ -330,7 +328,7 @@ def reward_summary(meta: dict[str, Any]) -> str:
     """Which reward trained the policy (a student: its teacher's, up a chain of students to the
     first policy trained with a reward), against the seed's Table I: "Table I exactly (z* = …)"
     or the weights that differ, flagged as not Table I."""
-    from selfright.train.checkpoints import read_meta
+    from selfright.policies.run_files import read_meta
 
     source = meta
     for _ in range(16):  # a student of a student of ... (bounded: a cycle of metas is a broken run)
@@ -349,22 +347,6 @@ def reward_summary(meta: dict[str, Any]) -> str:
         for f in fields(RewardConfig)
         if f.name not in OWN_WORDS and f.name in reward and reward[f.name] != getattr(table, f.name)
     ]
-    if reward.get("goal_set"):
-        changed.append(f"goal-set term weight {reward['goal_set']} (not in Table I)")
-    if reward.get("stance"):
-        pose = tuple(reward.get("stance_pose", table.stance_pose))
-        changed.append(f"stance term weight {reward['stance']} towards {pose} rad (not in Table I)")
-    if reward.get("upright_spin"):
-        tilt = reward.get("upright_spin_tilt_deg", table.upright_spin_tilt_deg)
-        changed.append(f"upright-spin term −{reward['upright_spin']} · ‖ω‖² within {tilt}° of upright (not in Table I)")
-    if reward.get("upright_speed"):
-        tilt = reward.get("upright_spin_tilt_deg", table.upright_spin_tilt_deg)
-        changed.append(f"upright-speed term −{reward['upright_speed']} · ‖v_xy‖² within {tilt}° of upright (not in Table I)")
-    refall_tilt = reward.get("refall_tilt_deg", table.refall_tilt_deg)
-    if reward.get("refall"):
-        changed.append(f"re-fall penalty {reward['refall']} per tip past {refall_tilt}° after upright (not in Table I)")
-    if reward.get("off_tile"):
-        changed.append(f"penalty {reward['off_tile']} for leaving the tile (not in Table I)")
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""

@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-import torch
 
 from selfright.env.randomization import EpisodeFactors
 from selfright.env.recovery_env import SettledStarts
@@ -27,14 +26,10 @@ class EpisodeDraw:
     """k models the episodes run on (randomised copies or the worlds' own); None = rebuild them
     from ``world_idx`` and ``factors`` (prepared starts do not keep a ~0.5 MB model copy each)."""
     replayed: np.ndarray
-    """(k,) bool, not a fresh fall: it replays a recent failed episode's draw, or restarts
-    from a stuck episode's end state (``EpisodeConfig.restart_stuck``)."""
-    origins: list[tuple[int, np.random.Generator] | None]
-    """(world, generator before the fall draw) of each episode, kept for replay (else None)."""
+    """(k,) bool, not a fresh fall: it restarts from a stuck episode's end state
+    (``EpisodeConfig.restart_stuck``)."""
     settled: SettledStarts
     """States after the fall protocol's 2 s settle."""
-    memory: list[StartMemory | None] | None = None
-    """Per row, the policy-side memory a restart carries (arrival restarts), or None for all."""
 
 
 class PreparedStarts:
@@ -47,11 +42,9 @@ class PreparedStarts:
         self.randomized = False
         self.factors = np.ones((num_envs, 4))
         self.replayed = np.zeros(num_envs, dtype=bool)
-        self.origins: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
         self.state = np.zeros((num_envs, state_size))
         self.sens = np.zeros((num_envs, sensor_size))
         self.diverged = np.zeros(num_envs, dtype=bool)
-        self.memory: list[StartMemory | None] = [None] * num_envs
 
     def put(self, slots: np.ndarray, draw: EpisodeDraw) -> None:
         """Keep ``draw``'s rows as the next starts of ``slots``."""
@@ -63,9 +56,6 @@ class PreparedStarts:
         self.state[slots] = draw.settled.state
         self.sens[slots] = draw.settled.sens
         self.diverged[slots] = draw.settled.diverged
-        for j, i in enumerate(slots):
-            self.origins[i] = draw.origins[j]
-            self.memory[i] = draw.memory[j] if draw.memory is not None else None
         self.ready[slots] = True
 
     def take(self, slots: np.ndarray) -> EpisodeDraw:
@@ -77,16 +67,11 @@ class PreparedStarts:
             factors=EpisodeFactors.from_array(self.factors[slots].copy()) if self.randomized else None,
             models=None,
             replayed=self.replayed[slots].copy(),
-            origins=[self.origins[i] for i in slots],
-            memory=[self.memory[i] for i in slots],
             settled=SettledStarts(
                 state=self.state[slots].copy(), sens=self.sens[slots].copy(), diverged=self.diverged[slots].copy()
             ),
         )
         self.ready[slots] = False
-        for i in slots:
-            self.origins[i] = None
-            self.memory[i] = None
         return draw
 
 
@@ -101,19 +86,6 @@ class EndState:
     """(nstate,) full-physics state."""
     sens: np.ndarray
     """(nsensordata,) sensor readings of that state."""
-    memory: StartMemory | None = None
-    """What the policy's inputs carried at that state beyond it (an arrival restart's), or None."""
-
-
-@dataclass(frozen=True)
-class StartMemory:
-    """The policy-side memory of a state a restart begins at: its last action and, for a student
-    with a history, the frames before it (``EpisodeConfig.restart_arrivals``)."""
-
-    prev_action: torch.Tensor
-    """(J,) the action applied at the step that reached the state."""
-    history: torch.Tensor | None
-    """(H, D) the student's history before that state's frame, or None (no history)."""
 
 
 class StuckEnds:

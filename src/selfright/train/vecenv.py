@@ -18,15 +18,11 @@ judge policies with ``selfright evaluate``.
 Training episodes last ``EpisodeConfig.episode_s`` (10 s) after the fall protocol; they end
 early only when the physics diverges (terminal) or the robot leaves the tile (a time-out:
 bootstrapped, see ``EpisodeConfig.off_tile_is_timeout``), not on success, so the policy
-learns to keep standing; ``EpisodeConfig.terminate_on_success`` ends them once the goal hold
-completes (``success_is_timeout``: as a time-out).
+learns to keep standing.
 """
 
 from __future__ import annotations
 
-import copy
-import math
-from collections import deque
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -37,7 +33,6 @@ from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import goal_height_m, upright
-from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts
 from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
@@ -45,12 +40,10 @@ from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
 from selfright.train.config import LABEL_GROUP, TrainConfig, student_group
-from selfright.train.stand_starts import StandDraw, stand_starts
-from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StartMemory, StuckEnds
+from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
 
 if TYPE_CHECKING:
     from selfright.env.robot_state import RobotState
-    from selfright.train.upright_override import UprightOverride
 
 
 class RecoveryVecEnv(VecEnv):
@@ -91,11 +84,6 @@ class RecoveryVecEnv(VecEnv):
         self.max_episode_length = int(round(train.episode.episode_s / self.dt))
         self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long)
         self.rng = np.random.default_rng(seed)
-        noise = train.randomization.active_sensor_noise
-        self.sensor_noise_std = noise * sensor_noise_std(self.env.robot.num_joints) if noise > 0 else None
-        """(6 + 3J,) std of the noise on the student observation; None = clean sensors."""
-        self.noise_rng = np.random.default_rng([*np.atleast_1d(seed).tolist(), 0x5E45])
-        """The sensor noise's own stream, so turning it on leaves every episode's draws alone."""
         self.randomizer = ModelRandomizer(worlds[0].model, self.env.robot) if train.randomization.enabled else None
         robot = self.env.robot
         self.joint_low = torch.tensor(robot.joint_low, dtype=torch.float32)
@@ -120,52 +108,25 @@ class RecoveryVecEnv(VecEnv):
         """Control steps each slot has stood upright on four feet under the goal bar without a
         break (with ``low_stance_leaky``: the leaky count of ``_low_stance_ended``)."""
         self.goal_bar_m = goal_height_m(cfg.goal, robot.leg_length_m)
-        self.track_refall = train.reward.refall != 0.0 or ep.terminate_on_refall
-        self.refall_cos = math.cos(math.radians(train.reward.refall_tilt_deg))
-        self.upright_since_fall = torch.zeros(num_envs, dtype=torch.bool)
-        """Each slot has been upright (goal-set roll and pitch) since its episode began or its
-        last re-fall (``RewardConfig.refall``, ``EpisodeConfig.terminate_on_refall``)."""
-        self.replay_share = ep.replay_failed
         self.restart_share = ep.restart_stuck
-        self.track_tail = self.curriculum or self.replay_share > 0 or self.restart_share > 0
+        self.track_tail = self.curriculum or self.restart_share > 0
         self.tilted_only = ep.restart_tilted_only
-        self.arrival_share = ep.restart_arrivals
-        self.arrival_cos = math.cos(math.radians(ep.arrival_tilt_deg))
-        self.arrivals = StuckEnds(num_envs)
-        """Recorded arrivals (``restart_arrivals``), each handed out once."""
-        self.arrived = torch.zeros(num_envs, dtype=torch.bool)
-        """Each slot's episode has come within ``arrival_tilt_deg`` of upright."""
-        self.stand_share = ep.stand_start
-        self.stand_pose = robot.reference_pose(cfg.action.reference)
-        if self.stand_pose is None:
-            self.stand_pose = robot.stand_pose
-        self.stand_draw = StandDraw(
-            tilt_deg=ep.stand_start_tilt_deg, joint_noise_rad=ep.stand_start_joint_noise_rad,
-            lin_vel_mps=ep.stand_start_lin_vel_mps, ang_vel_rps=ep.stand_start_ang_vel_rps,
-        )
         self.stuck_ends = StuckEnds(num_envs)
         """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
         self.slot_factors = np.ones((num_envs, 4))
         """(n, 4) randomisation factors of each slot's episode (``EpisodeFactors.as_array``;
         meaningful only with randomisation on)."""
-        self.failed_starts: deque[tuple[int, np.random.Generator]] = deque(maxlen=num_envs)
-        """(world, generator before the fall draw) of recent failed episodes, for replay."""
         frames = train.distillation.student_history
         self.student_frames = ObsHistory(frames, group_dim("student"), num_envs) if frames > 1 else None
         """The last ``student_history`` student observations of each slot (group
         ``student_group(frames)``), for a student that reads a short history."""
         self.label_frames = ObsHistory(label_history, group_dim("student"), num_envs) if label_history > 0 else None
-        """The last ``label_history`` *exact* student observations of each slot (group
-        ``LABEL_GROUP``), for a student that labels a stance distillation; None = not asked for."""
-        self.slot_start: list[tuple[int, np.random.Generator] | None] = [None] * num_envs
+        """The last ``label_history`` student observations of each slot (group ``LABEL_GROUP``),
+        for a student that labels another; None = not asked for."""
         self.replayed = torch.zeros(num_envs, dtype=torch.bool)
         self.prepare_starts = ep.prepare_starts
         self.next_start = PreparedStarts(num_envs, self.env.sl.size, self.env.sens.shape[1])
         """Each slot's settled next episode start, drawn ahead in batches (``prepare_starts``)."""
-        self.action_override: UprightOverride | None = None
-        """Replaces the policy's actions before they are applied, given the teacher
-        observation (``EpisodeConfig.upright_policy`` or ``tilted_policy``); told of every slot that starts a new
-        episode."""
         self.reset_all()
 
     # ------------------------------------------------------------------ resets
@@ -202,7 +163,7 @@ class RecoveryVecEnv(VecEnv):
 
     def _draw(self, slots: np.ndarray) -> EpisodeDraw:
         """Draw and settle the next episodes of ``slots``: world (curriculum level or uniform),
-        fall (or a replayed failed one), randomisation factors."""
+        fall (or a stuck episode's end state), randomisation factors."""
         k = len(slots)
         env = self.env
         if self.curriculum:
@@ -211,15 +172,6 @@ class RecoveryVecEnv(VecEnv):
             world_idx = self.rng.integers(len(env.worlds), size=k)
         rngs = self.rng.spawn(k)
         replayed = np.zeros(k, dtype=bool)
-        origins: list[tuple[int, np.random.Generator] | None] = [None] * k
-        if self.replay_share > 0:
-            world_idx = np.array(world_idx)
-            for j in np.flatnonzero(self.rng.random(k) < self.replay_share):
-                if not self.failed_starts:
-                    break
-                world_idx[j], rngs[j] = self.failed_starts.popleft()
-                replayed[j] = True
-            origins = [(int(w), copy.deepcopy(r)) for w, r in zip(world_idx, rngs)]
         f = sample_factors(k, self.train_cfg.randomization, self.rng) if self.randomizer is not None else None
         ends = self._take_stuck_ends(k)
         if ends:
@@ -230,56 +182,27 @@ class RecoveryVecEnv(VecEnv):
                 if factors is not None and e.factors is not None:
                     factors[j] = e.factors
                 replayed[j] = True
-                origins[j] = None
             f = EpisodeFactors.from_array(factors) if factors is not None else None
         models = self._models(world_idx, f)
         fresh = np.array([j for j in range(k) if j not in ends], dtype=np.int64)
-        stand = np.zeros(0, dtype=np.int64)
-        if self.stand_share > 0 and len(fresh):
-            pick = self.rng.random(len(fresh)) < self.stand_share
-            stand, fresh = fresh[pick], fresh[~pick]
-            replayed[stand] = True
-            for j in stand:
-                origins[j] = None
         if len(fresh):
             settled = env.settle(world_idx[fresh], [rngs[j] for j in fresh], [models[j] for j in fresh])
         else:
             settled = SettledStarts(np.empty((0, env.sl.size)), np.empty((0, env.sens.shape[1])), np.zeros(0, bool))
-        if ends or len(stand):
+        if ends:
             settled = self._with_end_states(settled, fresh, ends, k)
-        if len(stand):
-            standing = stand_starts(env, world_idx[stand], [rngs[j] for j in stand], [models[j] for j in stand],
-                                    self.stand_pose, self.stand_draw)
-            settled.state[stand], settled.sens[stand], settled.diverged[stand] = standing.state, standing.sens, standing.diverged
-        memory = [ends[j].memory if j in ends else None for j in range(k)] if ends else None
-        return EpisodeDraw(world_idx, f, models, replayed, origins, settled, memory)
+        return EpisodeDraw(world_idx, f, models, replayed, settled)
 
     def _take_stuck_ends(self, k: int) -> dict[int, EndState]:
-        """Rows of a k-row draw that restart from stuck end states (``restart_stuck``) or from
-        recorded arrivals (``restart_arrivals``), and theirs."""
+        """Rows of a k-row draw that restart from stuck end states (``restart_stuck``), and theirs."""
         ends: dict[int, EndState] = {}
-        for share, pool in ((self.restart_share, self.stuck_ends), (self.arrival_share, self.arrivals)):
-            if share <= 0:
-                continue
-            for j in np.flatnonzero(self.rng.random(k) < share):
-                if not len(pool):
-                    break
-                if int(j) not in ends:
-                    ends[int(j)] = pool.take(self.rng)
+        if self.restart_share <= 0:
+            return ends
+        for j in np.flatnonzero(self.rng.random(k) < self.restart_share):
+            if not len(self.stuck_ends):
+                break
+            ends[int(j)] = self.stuck_ends.take(self.rng)
         return ends
-
-    def _keep_arrivals(self, state: RobotState) -> None:
-        """Record the state of every slot whose trunk has just come within ``arrival_tilt_deg``
-        of upright for the first time in its episode, with its last action and the student's
-        history before this step's frame (``restart_arrivals``)."""
-        new = (state.up_z > self.arrival_cos) & ~self.arrived
-        self.arrived |= new
-        env = self.env
-        for i in new.nonzero(as_tuple=False).flatten().tolist():
-            history = self.student_frames.buf[i].clone() if self.student_frames is not None else None
-            memory = StartMemory(prev_action=env.prev_action[i].clone(), history=history)
-            factors = self.slot_factors[i].copy() if self.randomizer is not None else None
-            self.arrivals.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy(), memory))
 
     def _with_end_states(
         self, settled: SettledStarts, fresh: np.ndarray, ends: dict[int, EndState], k: int
@@ -325,26 +248,13 @@ class RecoveryVecEnv(VecEnv):
             self.slot_factors[ids] = draw.factors.as_array()
         else:
             env.factors[t] = 1.0
-        for j, i in enumerate(ids):
-            self.slot_start[i] = draw.origins[j]
         self.episode_length_buf[t] = 0
         self.tail_goal_steps[t] = 0
         self.low_streak[t] = 0
-        self.upright_since_fall[t] = False
         if self.student_frames is not None:
             self.student_frames.reset(ids)
-        if self.label_frames is not None:  # (a restart at a recorded arrival restarts it too)
+        if self.label_frames is not None:
             self.label_frames.reset(ids)
-        if self.arrival_share > 0:  # a start already upright (an arrival, a standing start) records none
-            self.arrived[t] = env.robot_state(ids).up_z > self.arrival_cos
-        for j, m in enumerate(draw.memory or []):
-            if m is None:
-                continue
-            i = int(ids[j])
-            env.prev_action[i] = m.prev_action
-            if self.student_frames is not None and m.history is not None:
-                self.student_frames.buf[i] = m.history
-                self.student_frames.fresh[i] = False
         self.replayed[t] = torch.from_numpy(draw.replayed)
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
@@ -353,11 +263,8 @@ class RecoveryVecEnv(VecEnv):
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
         groups = self.env.observe()
-        if self.label_frames is not None:  # before the noise
+        if self.label_frames is not None:
             groups[LABEL_GROUP] = self.label_frames.push(np.arange(self.num_envs), groups["student"])
-        if self.sensor_noise_std is not None:
-            z = self.noise_rng.standard_normal(tuple(groups["student"].shape), dtype=np.float32)
-            groups["student"] = groups["student"] + self.sensor_noise_std * torch.from_numpy(z)
         if self.student_frames is not None:
             groups[student_group(self.student_frames.frames)] = self.student_frames.push(np.arange(self.num_envs), groups["student"])
         return TensorDict(groups, batch_size=[self.num_envs]).to(self.device)
@@ -375,10 +282,7 @@ class RecoveryVecEnv(VecEnv):
         """
         env = self.env
         prev_action = env.prev_action.clone()
-        if self.action_override is not None:
-            actions = self.action_override(self._obs["teacher"], actions)
         out = env.step(actions.detach().cpu())
-        refell = self._refell(out.state)
         diverged = env.diverged
         left_tile = out.failed & ~diverged
         ctx = RewardContext(
@@ -388,16 +292,11 @@ class RecoveryVecEnv(VecEnv):
             joint_low=self.joint_low,
             joint_high=self.joint_high,
             target_height_m=self.world_target_m[torch.from_numpy(env.world_idx)],
-            in_goal=out.in_goal,
-            refell=refell,
-            left_tile=left_tile,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
-        if self.arrival_share > 0:
-            self._keep_arrivals(out.state)
         if self.track_tail:
             in_tail = self.episode_length_buf > self.max_episode_length - self.window
             self.tail_goal_steps += (out.in_goal & in_tail).long()
@@ -405,27 +304,20 @@ class RecoveryVecEnv(VecEnv):
         ep = self.train_cfg.episode
         if not ep.off_tile_is_timeout:
             terminated |= left_tile
-        succeeded = out.succeeded if ep.terminate_on_success else torch.zeros_like(out.succeeded)
-        if not ep.success_is_timeout:
-            terminated |= succeeded
         low_stance = self._low_stance_ended(out.state, out.in_goal)
         terminated |= low_stance
-        if ep.terminate_on_refall:
-            terminated |= refell
-        time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile | succeeded) & ~terminated
+        time_out = ((self.episode_length_buf >= self.max_episode_length) | left_tile) & ~terminated
         dones = terminated | time_out
 
         log: dict[str, float | torch.Tensor] = {f"Reward/{n}": v.mean() for n, v in terms.items()}
         log["Reward/total"] = reward.mean()
         log["Metrics/in_goal"] = out.in_goal.float().mean()
         log["Metrics/upright_cos"] = out.state.up_z.float().mean()
-        if self.track_refall:
-            log["Metrics/refall_per_s"] = refell.float().mean() / self.dt
         for name, value in terms.items():
             self.episode_sums[name] += value
         done_ids = dones.nonzero(as_tuple=False).flatten()
         if len(done_ids) > 0:
-            in_goal = self._ended_in_goal(done_ids, succeeded[done_ids])
+            in_goal = self._ended_in_goal(done_ids)
             for name in self.term_names:
                 log[f"Episode_Reward/{name}"] = self.episode_sums[name][done_ids].mean()
             log["Episode/success_rate"] = self.ever_succeeded[done_ids].float().mean()
@@ -438,36 +330,16 @@ class RecoveryVecEnv(VecEnv):
                 self._update_levels(done_ids, in_goal, left_tile[done_ids])
                 log["Curriculum/mean_level"] = self.level.float().mean()
                 log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
-            if self.replay_share > 0:
-                self._keep_failed_starts(done_ids, in_goal, diverged)
             if self.restart_share > 0:
                 self._keep_stuck_ends(done_ids, in_goal, diverged | left_tile)
-            if self.replay_share > 0 or self.restart_share > 0 or self.arrival_share > 0 or self.stand_share > 0:
                 log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
-            if self.action_override is not None:
-                self.action_override.reset(done_ids)
-        if self.action_override is not None:
-            log["Metrics/overridden"] = self.action_override.share
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
 
-    def _refell(self, state: RobotState) -> torch.Tensor:
-        """(n,) bool: the trunk's up axis has just tipped more than ``RewardConfig.refall_tilt_deg``
-        from vertical after the robot was upright (roll and pitch within the goal set's tilt)
-        since its episode began or its last re-fall (all False when neither the ``refall`` term
-        nor ``terminate_on_refall`` is on)."""
-        if not self.track_refall:
-            return torch.zeros(self.num_envs, dtype=torch.bool)
-        fell = self.upright_since_fall & (state.up_z < self.refall_cos)
-        now_upright = upright(state.roll, state.pitch, self.env.cfg.goal)
-        self.upright_since_fall = (self.upright_since_fall | now_upright) & ~fell
-        return fell
-
     def _low_stance_ended(self, state: RobotState, in_goal: torch.Tensor) -> torch.Tensor:
-        """(n,) bool: the robot has now stood upright on four feet under the goal bar (or under
-        ``low_stance_over_feet_m`` above the ground under its feet) for
+        """(n,) bool: the robot has now stood upright on four feet under the goal bar for
         ``EpisodeConfig.terminate_low_stance_s`` without a break (all False when off). With
         ``low_stance_leaky`` three feet count too, and a step that is neither such a stance nor
         in the goal set (``in_goal``, (n,)) takes one step off the count instead of clearing it."""
@@ -476,37 +348,24 @@ class RecoveryVecEnv(VecEnv):
         ep = self.train_cfg.episode
         leaky = ep.low_stance_leaky
         feet = state.feet_contact.sum(dim=-1) >= (3 if leaky else 4)
-        if ep.low_stance_over_feet_m is None:
-            under = state.height < self.goal_bar_m
-        else:
-            under = torch.from_numpy(self.env.height_over_feet(np.arange(self.num_envs)) < ep.low_stance_over_feet_m)
+        under = state.height < self.goal_bar_m
         low = upright(state.roll, state.pitch, self.env.cfg.goal) & feet & under
         other = (self.low_streak - 1).clamp(min=0) if leaky else torch.zeros_like(self.low_streak)
         streak = torch.where(low, self.low_streak + 1, other)
         self.low_streak = torch.where(in_goal, torch.zeros_like(streak), streak)
         return self.low_streak >= self.low_stance_steps
 
-    def _keep_failed_starts(self, ids: torch.Tensor, in_goal: torch.Tensor, diverged: torch.Tensor) -> None:
-        """Queue the starts of finished episodes that did not end in the goal set (``in_goal``,
-        per id; diverged ones excluded: their start says nothing about the policy)."""
-        failed = ~in_goal & ~diverged[ids]
-        for i in ids[failed].tolist():
-            start = self.slot_start[i]
-            if start is not None:
-                self.failed_starts.append(start)
-
-    def _ended_in_goal(self, ids: torch.Tensor, succeeded: torch.Tensor) -> torch.Tensor:
+    def _ended_in_goal(self, ids: torch.Tensor) -> torch.Tensor:
         """Whether the finished episodes in slots ``ids`` spent at least half of their final
-        ``window`` steps in the goal set, or stopped on success (``succeeded``, per id; with
-        ``terminate_on_success``): what the curriculum and replay call success."""
-        return (self.tail_goal_steps[ids] * 2 >= self.window) | succeeded
+        ``window`` steps in the goal set: what the curriculum and ``restart_stuck`` call success."""
+        return self.tail_goal_steps[ids] * 2 >= self.window
 
     def _update_levels(self, ids: torch.Tensor, in_goal: torch.Tensor, left_tile: torch.Tensor) -> None:
         """Promote slots whose finished episode ended in the goal set (``in_goal``, per id:
-        ``_ended_in_goal``); demote those that spent none of their final window there (and did
-        not stop on success) or left the tile."""
+        ``_ended_in_goal``); demote those that spent none of their final window there or left
+        the tile."""
         up = in_goal & ~left_tile
-        # never together with up: up needs tail ≥ 1 or a success, on the tile
+        # never together with up: up needs tail ≥ 1, on the tile
         down = ((self.tail_goal_steps[ids] == 0) & ~in_goal) | left_tile
         step = up.long() - down.long()
         self.level[ids] = (self.level[ids] + step).clamp(0, len(self.env.worlds) - 1)

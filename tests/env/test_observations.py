@@ -1,0 +1,22 @@
+"""Observation columns: the teacher's privileged height column reads the trunk height."""
+
+import numpy as np
+import torch
+
+
+def test_teacher_height_column_is_the_trunk_height():
+    from selfright.config import BenchmarkConfig
+    from selfright.env.observations import teacher_height_column
+    from selfright.env.recovery_env import RecoveryEnv
+    from selfright.env.world import build_world
+    from selfright.evaluate.runner import context_config
+    from selfright.terrain.grid import grid_cells
+
+    cfg = BenchmarkConfig()
+    cell = grid_cells("tiny", cfg.terrain)[3]
+    env = RecoveryEnv(cfg, [build_world(cell, cfg, context_config(cfg), 0)], 2)
+    ids = np.arange(2)
+    env.reset(ids, np.zeros(2, int), [np.random.default_rng(s) for s in (1, 2)])
+    obs = env.observe(ids, ("teacher",))["teacher"]
+    torch.testing.assert_close(obs[:, teacher_height_column(12)], env.robot_state(ids).height.float())
+    env.close()

@@ -1,0 +1,146 @@
+"""Reward terms (Table I) on hand-set robot states, against hand-computed values."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+import torch
+
+from selfright.env import rewards as R
+from selfright.env.robot_state import RobotState
+from selfright.env.rewards import RewardConfig
+
+J = 12
+LOW = torch.full((J,), -1.0)
+HIGH = torch.full((J,), 1.0)
+
+
+def rot_x(angle: float) -> torch.Tensor:
+    c, s = math.cos(angle), math.sin(angle)
+    return torch.tensor([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def make_ctx(**events: torch.Tensor) -> R.RewardContext:
+    """The three envs' reward context: zero actions, started at the origin, z* 0.32 m; ``events``
+    the optional fields (``in_goal``, ``refell``, ``left_tile``)."""
+    return R.RewardContext(
+        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_low=LOW, joint_high=HIGH, target_height_m=0.32, **events,
+    )
+
+
+def make_state() -> RobotState:
+    """Three envs: upright and standing; on its side; upside down."""
+    n = 3
+    q = torch.zeros(n, J)
+    q[1, 0] = 1.1  # 0.1 rad above the upper limit
+    q[2, 1] = -1.2  # 0.2 below the lower limit
+    q[2, 2] = 1.05  # 0.05 above the upper limit
+    torque = torch.zeros(n, J)
+    torque[1] = 1.0  # ‖τ‖² = 12
+    torque[2, :2] = torch.tensor([3.0, 4.0])  # ‖τ‖² = 25
+    feet = torch.tensor([[True] * 4, [True, True, True, False], [False] * 4])
+    return RobotState(
+        pos=torch.tensor([[0.0, 0.0, 0.32], [0.3, 0.4, 0.52], [1.0, 0.0, 0.15]], dtype=torch.float64),
+        rot=torch.stack([rot_x(0.0), rot_x(math.pi / 2), rot_x(math.pi)]),
+        lin_vel=torch.tensor([[0.0, 0.0, 0.0], [0.0, 0.0, 0.5], [0.0, 0.0, -1.0]]),
+        ang_vel=torch.zeros(n, 3),
+        q=q,
+        qd=torch.zeros(n, J),
+        torque=torque,
+        feet_contact=feet,
+        body_contacts=torch.tensor([0.0, 2.0, 5.0]),
+        ground_z=torch.tensor([0.0, 0.3, 0.05], dtype=torch.float64),
+    )
+
+
+def test_upright_cos():
+    torch.testing.assert_close(R.upright_cos(make_state()), torch.tensor([1.0, 0.0, -1.0]), atol=1e-6, rtol=0)
+
+
+def test_vertical_velocity_kernel():
+    expected = torch.tensor([1.0, math.exp(-0.25 / 0.25), math.exp(-1.0 / 0.25)])
+    torch.testing.assert_close(R.vertical_velocity_kernel(make_state(), 0.25), expected)
+
+
+def test_torque_l2():
+    torch.testing.assert_close(R.torque_l2(make_state()), torch.tensor([0.0, -12.0, -25.0]))
+
+
+def test_base_height_uses_height_above_ground():
+    # heights above ground: 0.32, 0.22, 0.10; target 0.32
+    expected = torch.tensor([0.0, -(0.1**2), -(0.22**2)])
+    torch.testing.assert_close(R.base_height_l2(make_state(), 0.32), expected, atol=1e-6, rtol=0)
+
+
+def test_body_collisions():
+    torch.testing.assert_close(R.body_collisions(make_state()), torch.tensor([0.0, -2.0, -5.0]))
+
+
+def test_action_rate_l2():
+    a = torch.zeros(2, J)
+    prev = torch.zeros(2, J)
+    a[0] = 1.0
+    prev[1, 3] = -0.5
+    torch.testing.assert_close(R.action_rate_l2(a, prev), torch.tensor([-12.0, -0.25]))
+
+
+def test_horizontal_drift_l2():
+    start = torch.tensor([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0]], dtype=torch.float64)
+    torch.testing.assert_close(R.horizontal_drift_l2(make_state(), start), torch.tensor([0.0, -0.25, 0.0]))
+
+
+def test_joint_limit_violation_is_a_penalty():
+    out = R.joint_limit_violation(make_state(), LOW, HIGH)
+    torch.testing.assert_close(out, torch.tensor([0.0, -0.1, -0.25]), atol=1e-6, rtol=0)
+    assert (out <= 0).all()
+
+
+def test_all_feet_contact():
+    torch.testing.assert_close(R.all_feet_contact(make_state()), torch.tensor([1.0, 0.0, 0.0]))
+
+
+def test_weighted_sum_is_sum_of_w_r_dt():
+    rs = make_state()
+    cfg = RewardConfig()
+    dt = 0.02
+    ctx = make_ctx()
+    total, terms = R.weighted_rewards(rs, ctx, cfg, dt)
+    assert set(terms) == set(R.reward_weights(cfg))
+    # env 0 stands upright, still, on four feet at exactly z*: orientation + φ(0) + feet.
+    assert total[0].item() == pytest.approx((2.5 * 1.0 + 0.1 * 1.0 + 8.0 * 1.0) * dt)
+    # env 2 by hand: cos −1, φ = e^−4, ‖τ‖² 25, height 0.10, 5 contacts, drift 1 m, limits 0.25.
+    by_hand = (
+        2.5 * -1.0 + 0.1 * math.exp(-4.0) + 0.001 * -25.0 + 40.0 * -(0.22**2) + 1.0 * -5.0
+        + 0.01 * -1.0 + 10.0 * -0.25 + 8.0 * 0.0
+    ) * dt
+    assert total[2].item() == pytest.approx(by_hand, rel=1e-5)
+    torch.testing.assert_close(total, torch.stack(list(terms.values())).sum(0))
+    assert terms["orientation"][2].item() == pytest.approx(-2.5 * dt)
+
+
+def test_weights_come_from_config():
+    cfg = RewardConfig(orientation=0.0, feet_contact=1.0)
+    w = R.reward_weights(cfg)
+    assert w["orientation"] == 0.0 and w["feet_contact"] == 1.0 and w["base_height"] == 40.0
+
+
+def test_standing_height_on_slopes():
+    from selfright.env.rewards import standing_height
+
+    z = standing_height(0.35, torch.tensor([0.0, 100.0 * math.tan(math.radians(20.0)), 100.0]))
+    assert z[0].item() == pytest.approx(0.35)
+    assert z[1].item() == pytest.approx(0.35 / math.cos(math.radians(20.0)), rel=1e-5)
+    assert z[2].item() == pytest.approx(0.35 * math.sqrt(2.0), rel=1e-5)
+
+
+
+
+
+
+
+
+
+

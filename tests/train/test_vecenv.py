@@ -1,0 +1,383 @@
+"""Training env adapter and domain randomisation on the real MJCF: a few envs, a few steps."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from types import SimpleNamespace
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+from selfright.config import BenchmarkConfig
+from selfright.env.rewards import RewardConfig
+from selfright.env.randomization import ModelRandomizer, sample_factors
+from selfright.robots import get_robot
+from selfright.sim.scene import TERRAIN_GEOM
+from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
+from selfright.train.contexts import make_training_worlds, training_cells
+from selfright.train.vecenv import RecoveryVecEnv
+
+CFG = BenchmarkConfig()
+
+
+@pytest.fixture(scope="module")
+def flat_worlds():
+    return make_training_worlds("flat", CFG, seed=0)
+
+
+def test_sample_factors_ranges_and_seeding():
+    cfg = RandomizationConfig()
+    a = sample_factors(200, cfg, np.random.default_rng(3))
+    b = sample_factors(200, cfg, np.random.default_rng(3))
+    np.testing.assert_array_equal(a.friction, b.friction)
+    for values, (lo, hi) in [(a.friction, cfg.friction), (a.kp_scale, cfg.kp_scale), (a.kd_scale, cfg.kd_scale),
+                             (a.mass_scale, cfg.mass_scale)]:
+        assert values.min() >= lo and values.max() <= hi and values.std() > 0
+    assert a.as_tensor().shape == (200, 3)
+
+
+def test_randomizer_writes_copies(flat_worlds):
+    base = flat_worlds[0].model
+    r = ModelRandomizer(base, get_robot(CFG.robot.name))
+    m = r.apply(base, friction=0.5, mass=1.1, kp=0.8, kd=1.2)
+    g = base.geom(TERRAIN_GEOM).id
+    assert m.geom_friction[g, 0] == pytest.approx(0.5)
+    assert base.geom_friction[g, 0] == pytest.approx(1.0)  # the world's model is untouched
+    trunk = base.body("trunk").id
+    assert m.body_mass[trunk] == pytest.approx(1.1 * base.body_mass[trunk])
+    assert m.body_mass[0] == base.body_mass[0]  # world body is not the robot
+    np.testing.assert_allclose(m.actuator_gainprm[:12, 0], 0.8 * CFG.robot.kp)
+    np.testing.assert_allclose(m.actuator_biasprm[:12, 1], -0.8 * CFG.robot.kp)
+    np.testing.assert_allclose(m.actuator_biasprm[:12, 2], -1.2 * CFG.robot.kd)
+
+
+
+
+
+
+def test_step_shapes_rewards_and_factors(flat_worlds):
+    env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=3, seed=0)
+    obs = env.get_observations()
+    assert obs["student"].shape == (3, 42) and obs["teacher"].shape == (3, 79)
+    # The teacher sees the randomised factors (its last three inputs) and friction.
+    torch.testing.assert_close(obs["teacher"][:, -3:], env.env.factors)
+    assert not torch.allclose(env.env.factors, torch.ones(3, 3))
+    g = flat_worlds[0].model.geom(TERRAIN_GEOM).id
+    frictions = [env.env.models[i].geom_friction[g, 0] for i in range(3)]
+    np.testing.assert_allclose(frictions, env.env.friction.numpy(), rtol=1e-6)
+    with torch.inference_mode():
+        for _ in range(3):
+            obs, rew, dones, extras = env.step(torch.zeros(3, 12))
+    assert rew.shape == (3,) and torch.isfinite(rew).all()
+    assert dones.shape == (3,) and extras["time_outs"].shape == (3,)
+    log = extras["log"]
+    for name in ("orientation", "torques", "feet_contact", "joint_limits"):
+        assert f"Reward/{name}" in log
+    env.close()
+
+
+
+
+def test_time_out_resets_and_is_reported(flat_worlds):
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=0.1))  # 5 control steps
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)
+    assert env.max_episode_length == 5
+    with torch.inference_mode():
+        for k in range(5):
+            _, _, dones, extras = env.step(torch.zeros(2, 12))
+            if k < 4:
+                assert not dones.any()
+    assert dones.all() and extras["time_outs"].all()
+    assert "Episode_Reward/orientation" in extras["log"] and "Episode/success_rate" in extras["log"]
+    assert (env.episode_length_buf == 0).all() and (env.env.step_count == 0).all()
+    env.close()
+
+
+
+
+
+
+def test_low_stance_streak_ends_only_an_unbroken_crouch(flat_worlds):
+    """``terminate_low_stance_s``: an episode ends once the robot has stood upright on four feet
+    under the goal bar for that long without a break; a stance above the bar, a foot off or a
+    tilted trunk resets the count."""
+    ep = EpisodeConfig(terminate_low_stance_s=3 * CFG.sim.control_dt_s)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=4, seed=1)
+    bar = env.goal_bar_m
+    feet = torch.ones(4, 4, dtype=torch.bool)
+    feet[2, 0] = False  # slot 2: a foot off
+    tilted = torch.tensor([0.0, 0.0, 0.0, 0.7])  # slot 3: 40° of roll
+
+    def state(h0: float):
+        heights = torch.tensor([h0, bar + 0.03, bar - 0.02, bar - 0.02])
+        return SimpleNamespace(roll=tilted, pitch=torch.zeros(4), feet_contact=feet, height=heights)
+
+    out = torch.zeros(4, dtype=torch.bool)
+    ended = [env._low_stance_ended(state(h), out).tolist() for h in (bar - 0.02, bar - 0.02, bar + 0.01, bar - 0.02, bar - 0.02)]
+    assert ended == [[False] * 4] * 5  # the third step, above the bar, broke slot 0's streak
+    assert env._low_stance_ended(state(bar - 0.02), out).tolist() == [True, False, False, False]
+    env.close()
+    off = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=4, seed=1)
+    assert not off._low_stance_ended(state(bar - 0.02), out).any()
+    off.close()
+
+
+def test_leaky_low_stance_count_outlasts_a_lifted_foot(flat_worlds):
+    """``low_stance_leaky``: three feet count, a step off the stance takes one off the count
+    (a robot creeping with a foot up now and then is still ended), the goal set clears it."""
+    ep = EpisodeConfig(terminate_low_stance_s=4 * CFG.sim.control_dt_s, low_stance_leaky=True)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=3, seed=1)
+    bar = env.goal_bar_m
+    zero = torch.zeros(3)
+
+    def step(heights, feet_down, in_goal=(False, False, False)):
+        feet = torch.zeros(3, 4, dtype=torch.bool)
+        for i, k in enumerate(feet_down):
+            feet[i, :k] = True
+        st = SimpleNamespace(roll=zero, pitch=zero, feet_contact=feet, height=torch.tensor(heights))
+        return env._low_stance_ended(st, torch.tensor(in_goal)).tolist()
+
+    low = bar - 0.02
+    assert step([low, low, low], [4, 3, 4]) == [False] * 3
+    assert step([low, low, low], [4, 2, 4]) == [False] * 3  # slot 1: two feet, one off its count
+    assert step([low, low, bar + 0.01], [4, 3, 4], in_goal=(False, False, True)) == [False] * 3  # slot 2 in goal: cleared
+    assert step([low, low, low], [4, 3, 4]) == [True, False, False]
+    assert env.low_streak.tolist() == [4, 2, 1]
+    env.close()
+
+
+
+
+def test_feet_sensors_are_the_foot_geoms(flat_worlds):
+    env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=2, seed=1)
+    with torch.inference_mode():
+        for _ in range(40):  # hold the stand pose until the robots lie nearly still
+            env.step(torch.zeros(2, 12))
+    inner = env.env
+    model = inner.models[1]
+    data = mujoco.MjData(model)
+    mujoco.mj_setState(model, data, inner.state[1], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_kinematics(model, data)
+    want = np.stack([data.geom_xpos[model.geom(g).id] for g in inner.robot.foot_geoms])
+    # sensors are read in the last physics step before its integration: millimetres apart
+    assert np.allclose(inner.feet_xyz(np.array([1]))[0], want, atol=5e-3)
+    env.close()
+
+
+def test_low_stance_end_is_terminal(flat_worlds, monkeypatch):
+    """The low-stance end is a terminal state (no bootstrapped value), logged per episode."""
+    ep = EpisodeConfig(terminate_low_stance_s=1.0)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=1)
+    monkeypatch.setattr(env, "_low_stance_ended", lambda state, in_goal: torch.tensor([True, False]))
+    with torch.inference_mode():
+        _, _, dones, extras = env.step(torch.zeros(2, 12))
+    assert dones.tolist() == [True, False]
+    assert extras["time_outs"].tolist() == [False, False]
+    assert float(extras["log"]["Episode/low_stance_end_rate"]) == 1.0
+    env.close()
+
+
+
+
+def test_incline_curriculum_levels_move_with_the_goal_window():
+    ep = EpisodeConfig(curriculum=True, incline_curriculum_deg=(5.0, 20.0), episode_s=0.1)
+    cells = training_cells("incline", CFG, ep)
+    assert [round(c.slope_deg, 3) for c in cells] == [5.0, 20.0]
+    worlds = make_training_worlds("incline", CFG, 0, ep)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), worlds, num_envs=3, seed=0)
+    assert env.curriculum and (torch.from_numpy(env.env.world_idx) == 0).all()  # everyone starts easy
+    ids = torch.arange(3)
+    env.tail_goal_steps[:] = torch.tensor([env.window, env.window, 0])
+    no = torch.zeros(3, dtype=torch.bool)  # none stopped on success
+
+    def update(rows, left_tile):
+        env._update_levels(rows, env._ended_in_goal(rows), left_tile)
+
+    update(ids, torch.tensor([False, True, False]))
+    assert env.level.tolist() == [1, 0, 0]  # promoted; left the tile; never in the goal
+    update(ids[:1], torch.tensor([False]))
+    assert env.level.tolist() == [1, 0, 0]  # clamped at the top
+    env._reset(np.arange(3))
+    assert env.env.world_idx.tolist() == [1, 0, 0]
+    env.tail_goal_steps[:] = 0
+    update(ids, torch.zeros(3, dtype=torch.bool))
+    assert env.level.tolist() == [0, 0, 0]
+    env.close()
+
+
+def test_networks_device_is_checked(tmp_path, monkeypatch):
+    """--device cuda on a machine without CUDA is a clear user error, raised before any work."""
+    from selfright.train.commands import TrainArgs, train
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    with pytest.raises(ValueError, match="no CUDA device"):
+        train(TrainArgs(out=tmp_path / "run", device="cuda", iterations=1))
+    assert not (tmp_path / "run").exists()
+
+
+
+
+@pytest.mark.parametrize("prepare", [True, False])
+def test_prepared_starts_settle_in_one_batch(flat_worlds, prepare):
+    """Staggered episode ends: with prepare_starts the first end settles the next start of
+    every slot in one call, and the later ends take theirs; without it each end settles alone.
+    Either way every new episode begins from a settled fall (time = settle_s)."""
+    ep = EpisodeConfig(episode_s=0.1, prepare_starts=prepare)  # 5 control steps
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=4, seed=3)
+    calls = []
+    settle = env.env.settle
+    env.env.settle = lambda w, r, m: calls.append(len(w)) or settle(w, r, m)
+    env.episode_length_buf[:] = torch.tensor([4, 3, 2, 1])  # slot k ends at step k + 1
+    with torch.inference_mode():
+        for k in range(4):
+            if prepare and k > 0:
+                expected = env.next_start.state[k].copy()
+            _, _, dones, _ = env.step(torch.zeros(4, 12))
+            assert dones.tolist() == [j == k for j in range(4)]
+            assert env.env.state[k, 0] == pytest.approx(CFG.fall.settle_s)
+            if prepare and k > 0:
+                np.testing.assert_array_equal(env.env.state[k], expected)  # the start prepared for it
+            # The episode runs on the randomised model its start settled on (rebuilt from the
+            # kept factors) and the teacher observes those factors.
+            g = flat_worlds[0].model.geom(TERRAIN_GEOM).id
+            assert env.env.models[k].geom_friction[g, 0] == pytest.approx(float(env.env.friction[k]), rel=1e-6)
+            trunk = flat_worlds[0].model.body("trunk").id
+            ratio = env.env.models[k].body_mass[trunk] / flat_worlds[0].model.body_mass[trunk]
+            assert ratio == pytest.approx(float(env.env.factors[k, 0]), rel=1e-6)
+    assert calls == ([4] if prepare else [1, 1, 1, 1])
+    if prepare:
+        assert not env.next_start.ready.any()  # all four taken
+    env.close()
+
+
+def test_prepared_start_on_a_stale_curriculum_level_is_redrawn():
+    ep = EpisodeConfig(curriculum=True, incline_curriculum_deg=(5.0, 20.0), episode_s=0.1)
+    worlds = make_training_worlds("incline", CFG, 0, ep)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), worlds, num_envs=2, seed=0)
+    env._reset(np.array([0]))  # prepares both slots' next starts on level 0 and takes slot 0's
+    assert env.next_start.ready.tolist() == [False, True] and env.next_start.world[1] == 0
+    env.level[1] = 1  # promoted since
+    env._reset(np.array([1]))
+    assert env.env.world_idx.tolist() == [0, 1]
+    env.close()
+
+
+def test_student_history_group_stacks_frames_and_restarts_with_the_episode(flat_worlds):
+    train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=0.06),  # 3 control steps
+                                distillation=dataclasses.replace(TrainConfig().distillation, student_history=3))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=0)
+    obs = env.get_observations()
+    assert obs["student_history"].shape == (2, 3 * 42)
+    torch.testing.assert_close(obs["student_history"], obs["student"].repeat(1, 3))
+    frames = [obs["student"]]
+    with torch.inference_mode():
+        for _ in range(2):
+            obs, _, dones, _ = env.step(torch.zeros(2, 12))
+            frames.append(obs["student"])
+        assert not dones.any()
+        torch.testing.assert_close(obs["student_history"], torch.cat(frames, dim=1))
+        obs, _, dones, _ = env.step(torch.zeros(2, 12))  # time-out: new episodes start
+    assert dones.all()
+    torch.testing.assert_close(obs["student_history"], obs["student"].repeat(1, 3))
+    env.close()
+
+
+@pytest.mark.parametrize("share", [1.0, 0.0])
+def test_stuck_end_states_restart_episodes(flat_worlds, share):
+    """With restart_stuck 1.0 every episode that ends outside the goal set hands its final
+    state to a new episode (clock reset, on the ground, no new fall); with 0 new episodes
+    are fresh falls."""
+    ep = EpisodeConfig(episode_s=0.1, restart_stuck=share, prepare_starts=False)  # 5 steps: nobody gets up
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=3, seed=4)
+    with torch.inference_mode():
+        for _ in range(5):
+            _, _, dones, extras = env.step(torch.zeros(3, 12))
+    assert dones.all() and np.allclose(env.env.state[:, 0], CFG.fall.settle_s)
+    assert len(env.stuck_ends) == 0  # kept and taken back out (or never kept)
+    assert env.replayed.all() == bool(share)
+    if share:
+        assert float(extras["log"]["Episode/replayed_share"]) == 0.0  # the episodes that ended were fresh
+    else:
+        assert "Episode/replayed_share" not in extras["log"]
+    env.close()
+
+
+def test_stuck_end_state_is_the_final_state(flat_worlds):
+    """A restarted episode starts from exactly a kept end state, on that episode's tile and
+    randomised model."""
+    ep = EpisodeConfig(episode_s=0.1, restart_stuck=1.0, prepare_starts=False)
+    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=5)
+    taken = []
+    take = env.stuck_ends.take
+    env.stuck_ends.take = lambda rng: taken.append(take(rng)) or taken[-1]
+    kept = []
+    put = env.stuck_ends.put
+    env.stuck_ends.put = lambda e: kept.append(e) or put(e)
+    with torch.inference_mode():
+        for _ in range(5):
+            env.step(torch.zeros(2, 12))
+    assert len(kept) == 2 and len(taken) == 2 and {id(e) for e in kept} == {id(e) for e in taken}
+    for i in range(2):
+        e = next(e for e in taken if np.array_equal(e.state[1:], env.env.state[i, 1:]))
+        assert env.env.world_idx[i] == e.world
+        np.testing.assert_allclose(env.slot_factors[i], e.factors)
+        assert float(env.env.friction[i]) == pytest.approx(e.factors[0], rel=1e-6)
+    env.close()
+
+
+def test_stuck_restarts_can_keep_only_tilted_end_states(flat_worlds):
+    """With restart_tilted_only an upright end state (here: every slot is upright after the
+    first steps of a settled stand) is not kept; tilted ones are."""
+    kept = {}
+    for tilted_only in (False, True):
+        ep = EpisodeConfig(episode_s=0.1, restart_stuck=1.0, restart_tilted_only=tilted_only, prepare_starts=False)
+        env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=6, seed=4)
+        kept[tilted_only] = []
+        put = env.stuck_ends.put
+        env.stuck_ends.put = lambda e, k=kept[tilted_only], put=put: k.append(e) or put(e)
+        with torch.inference_mode():
+            for _ in range(5):
+                env.step(torch.zeros(6, 12))
+        env.close()
+    quat = env.env.sl.quat
+    up = [mujoco_up_z(e.state[quat]) for e in kept[False]]
+    limit = np.cos(np.radians(CFG.goal.max_tilt_deg))
+    assert 0 < len(kept[True]) <= sum(u < limit for u in up) < len(kept[False])  # some upright, some not
+    assert all(mujoco_up_z(e.state[quat]) < limit for e in kept[True])
+
+
+def mujoco_up_z(q: np.ndarray) -> float:
+    """World z of the body's up axis for a (w, x, y, z) quaternion."""
+    w, x, y, z = q
+    return 1.0 - 2.0 * (x * x + y * y)
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+def test_training_contexts():
+    rough = training_cells("rough", CFG)
+    extents = [c.roughness_extent_m for c in rough]
+    assert len(rough) == EpisodeConfig().rough_variants and max(extents) == pytest.approx(EpisodeConfig().rough_max_extent_m)
+    assert all(c.slope_pct == 0 for c in rough)
+    assert [c.roughness_level for c in rough] == sorted(c.roughness_level for c in rough)
+    (incline,) = training_cells("incline", CFG)
+    assert incline.slope_deg == pytest.approx(20.0)
+    levels = training_cells("incline", CFG, EpisodeConfig(curriculum=True))
+    assert [c.slope_deg for c in levels] == pytest.approx([5.0, 10.0, 15.0, 20.0])
+    with pytest.raises(ValueError):
+        training_cells("moon", CFG)
+
+
