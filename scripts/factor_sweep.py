@@ -4,7 +4,7 @@ the same falls at every value), one results folder per point
 (``OUT/<policy>/<factor><value>/s<seed>``, resumable like ``selfright evaluate``), then a table of
 the pooled success with its 95 % Wilson interval.
 
-    python scripts/factor_sweep.py --policies incline incline-sensor-noise --grid incline --seeds 4 --out results/noise_sweep
+    python scripts/factor_sweep.py --policies incline sr --grid incline --seeds 4 --out results/noise_sweep
     python scripts/factor_sweep.py --factor friction --values 0.4 0.6 0.8 1.0 1.2 --policies flat --grid flat --seeds 0
 
 Sensor noise (the default factor): scale 1 is ``SENSOR_NOISE_STD`` as Gaussian standard deviations
@@ -19,7 +19,7 @@ import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
 import tyro
 
@@ -42,7 +42,7 @@ class Args:
     factor: Factor = "sensor_noise"
     """The ``EvalConfig`` field swept (``selfright evaluate``'s ``--sensor-noise``, ``--friction``,
     ``--wall-gap-ratio``, ``--ground-timeconst``)."""
-    values: Annotated[tuple[float, ...], tyro.conf.arg(aliases=("--scales",))] = (0.0, 0.25, 0.5, 1.0, 1.5)
+    values: tuple[float, ...] = (0.0, 0.25, 0.5, 1.0, 1.5)
     """The factor's values (walls: 0 = none)."""
     seeds: tuple[int, ...] = (4,)
     """Evaluation seeds (the same falls at every value and for every policy)."""

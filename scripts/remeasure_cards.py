@@ -6,7 +6,7 @@ machine (rows differ across CPU generations; README, *Seeds*).
     for p in flat rough incline; do
       selfright evaluate --policy $p --grid $p --episodes 64 --seed 0 --out remeasure/$p
     done
-    python scripts/remeasure_cards.py --evaluations remeasure --why "the hard joint stops (2026-12-04)"
+    python scripts/remeasure_cards.py --evaluations remeasure --why "the stiffer joint stops"
 
 Every ``--evaluations``/NAME/summary.json whose policy is a shipped NAME rewrites NAME.md.
 """

@@ -19,13 +19,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 import tyro
 
 from selfright.config import BenchmarkConfig, ContextConfig
 from selfright.env.goal import goal_height_m
 from selfright.env.world import build_world
-from selfright.robots.kinematics import KinematicHeight
 from selfright.robots import get_robot
 from selfright.terrain.grid import grid_cells
 
@@ -37,8 +37,17 @@ def reach_m(robot) -> float:
     """Trunk over the feet's bottoms with every knee at its upper limit and the thigh at half
     that, so the foot is under the hip (the robot's own forward kinematics; 0.379 m on the A1,
     knee limit −0.916 rad). No leg pose stands taller; under load the PD-held knee sags below it."""
+    model = mujoco.MjModel.from_xml_string(robot.mjcf(1.0, 0.0))
+    data = mujoco.MjData(model)
+    free = int(np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)[0])
+    data.qpos[model.jnt_qposadr[free] + 3:model.jnt_qposadr[free] + 7] = (1.0, 0.0, 0.0, 0.0)  # trunk level
+    joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in robot.joint_names]
     knee = robot.joint_high[2]
-    return float(KinematicHeight(robot).level(np.array([[0.0, -knee / 2, knee] * (len(robot.joint_names) // 3)]))[0])
+    data.qpos[model.jnt_qposadr[joints]] = [0.0, -knee / 2, knee] * (len(robot.joint_names) // 3)
+    mujoco.mj_kinematics(model, data)
+    feet = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in robot.foot_geoms]
+    trunk = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, robot.trunk_body)
+    return float(np.max(data.xpos[trunk, 2] - data.geom_xpos[feet, 2] + model.geom_size[feet, 0]))
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,9 @@
 """Score many training checkpoints on the same falls and rank them: model selection on
 selection seeds, to be confirmed on seeds that chose nothing.
 
-A run's checkpoints differ more than the falls alone explain (docs/training.md, *Eight draws of
-the envelope recipe*: one draw's student scores 83.4 % at one iteration and 77.1 % at a later
-one), so the last checkpoint is one draw among them. This scores every candidate on the same
+A run's checkpoints differ more than the falls alone explain (checkpoints a few iterations
+apart disagree on a fifth of the falls: docs/training.md), so the last checkpoint is one draw
+among them. This scores every candidate on the same
 selection seeds, each policy loaded once for all of them, and prints them best first with
 their pooled rate and 95 % Wilson interval. The top of such a ranking is biased upward by the
 pick itself: score the chosen few again on fresh seeds with ``selfright evaluate`` and pair

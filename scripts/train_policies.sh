@@ -1,149 +1,254 @@
 #!/usr/bin/env bash
-# The recipe behind the policies shipped up to the fourteenth session, one stage per call (docs/training.md
-# tells why; `python scripts/lineage.py --policy NAME` lists every run behind a policy shipped today):
+# Retrains the six shipped learned policies from scratch, every run of each one's lineage oldest
+# first, and ships them: each run goes to $ROOT/<its name in runs/> and stops at the checkpoint
+# its child reads (`--iterations K+1` writes model_K.pt); the last run of a policy stops at the
+# shipped checkpoint, which is then scored as the model cards are (`selfright evaluate`, 64
+# episodes per cell, seed 0, into $ROOT/eval/NAME) and shipped (`selfright ship`).
 #
-#   bash scripts/train_policies.sh flat-teacher      # PPO teacher on the flat plane (~10.6 M steps)
-#   bash scripts/train_policies.sh context-teachers  # rough teacher fine-tuned from it; the flat escape specialist
-#                                                    # (it, with large noise, from its stall postures) and the rough one
-#                                                    # (the flat one, on rough ground); a `tall`-reference
-#                                                    # flat teacher from scratch, the incline teachers from that (the
-#                                                    # shipped one ends episodes in a crouch), the escape specialist
-#   bash scripts/train_policies.sh students          # distil the three sensor-only students
-#   bash scripts/train_policies.sh ship              # evaluate (64 episodes, seed 0) and ship all six
+#   bash scripts/train_policies.sh flat-teacher|flat|rough-teacher|rough|incline-teacher|incline|all
 #
-# Each stage resumes its runs from their latest checkpoints; a run at its iteration target
-# does nothing. The iteration targets are those of the shipped checkpoints (a run with
-# --iterations N ends with model_<N-1>.pt, the checkpoint the next stage reads). Physics is
-# multi-threaded and episodes are redrawn on resume, so a rerun reproduces the recipe, not
-# the bits (nor do runs since EpisodeConfig.prepare_starts, on by default, settles episode
-# starts in batches: same distribution, another random stream). Runs started side by side
-# take one physics thread each.
+# A policy's stage trains what it needs of its lineage (`flat` also trains the flat teacher,
+# but ships only `flat`); `all` ships the six. Rerun to resume: a run that holds its checkpoint
+# is skipped, a run with an earlier one goes on from its latest (`--resume`, `--init-from`
+# dropped). Each run's output is appended to its train.log.
+#
+# Environment:
+#   ROOT=runs/retrain      where the runs and evaluations go
+#   EXTRA="..."            appended to every `selfright train` (the last value of a flag wins),
+#                          e.g. EXTRA="--device cuda --physics-threads 8" on a GPU machine
+#   DEST=DIR               ship into DIR instead of the package's checkpoints folder
+#   SELFRIGHT_DRY_RUN=1    print the commands the stage would run from the runs already under
+#                          ROOT (each printed run counted as done), run nothing
+#
+# What each run took when it was recorded (env steps and wall-clock to the checkpoint used;
+# "2 cores" machines are cloud VMs):
+#
+#   run (ROOT/...)                   to model_K   env steps   wall-clock  machine
+#   flat_teacher_best                      3445       10.6 M      0.63 h  x86-64, 2 cores, 2 physics threads
+#   flat_escape_std05                       966        3.0 M      0.13 h  x86-64, 2 cores, 2 physics threads
+#   flat_student_tilt45_e512                360        4.4 M      0.48 h  x86-64, 2 cores, 1 physics thread
+#   flat_student_stance                     394        4.9 M      0.40 h  x86-64, 2 cores, 1 physics thread
+#   rough_scratch                          2216        6.8 M      0.86 h  x86-64, 2 cores, 1 physics thread
+#   rough_dc_teacher                      15832       48.6 M      2.85 h  Intel Xeon, 2 cores, 1 then 2 physics threads
+#   gpu_rough_h25w                          721        4.4 M      0.17 h  Intel Xeon, 16 cores, 5 then 8 physics threads,
+#                                                                          networks on an NVIDIA H200
+#   incline_scratch_narrow                 1928        5.9 M      1.12 h  x86-64, 2 cores, 1 physics thread
+#   incline_dc_teacher                     1173        3.6 M      0.27 h  Intel Xeon, 2 cores, 1 physics thread
+#   incline_dc_teacher_e512                 395        4.9 M      0.27 h  AMD EPYC, 2 cores, 2 physics threads
+#   incline_h25_sel_seed31                  479        2.9 M      0.28 h  AMD EPYC, 2 cores, 1 physics thread
+#   incline_h25_sel31_479_stance03          339        2.1 M      0.18 h  AMD EPYC, 2 cores, 1 physics thread
+#
+#   in all, per stage: flat-teacher 10.6 M / 0.63 h, flat 22.8 M / 1.65 h, rough-teacher 55.4 M / 3.71 h,
+#   rough 59.9 M / 3.88 h, incline-teacher 14.4 M / 1.66 h, incline 19.4 M / 2.11 h (all: 102 M / 7.6 h)
+#
+# A rerun is a draw of the recipe, not a copy of the shipped weights: physics and episode draws
+# depend on thread counts and machine, and a PPO run from scratch can take off later than the
+# recorded one. Where a run's validation (its validation.csv) stays well under the recorded one,
+# train it further (--resume --iterations N) and point its child at the checkpoint that
+# validates as well. The runs recorded with MuJoCo's softer joint stops train with them
+# (--joint-stop-timeconst-s 0.02); the flat teacher's two settings that are no longer options
+# are noted at its run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-stage=${1:?usage: train_policies.sh flat-teacher|context-teachers|students|ship}
-ENVS=${ENVS:-128}
+usage="usage: bash scripts/train_policies.sh flat-teacher|flat|rough-teacher|rough|incline-teacher|incline|all"
+ROOT=${ROOT:-runs/retrain}
+EXTRA=${EXTRA:-}
+DRY=${SELFRIGHT_DRY_RUN:-0}
+declare -A dry_last=()  # with SELFRIGHT_DRY_RUN: the checkpoint each printed step would have written
 
-has_ckpt() { ls "$1"/model_*.pt > /dev/null 2>&1; }
-
-# run OUT ARGS...: one `selfright train` invocation, appending to OUT.log.
+# run COMMAND...: run it, or print it with SELFRIGHT_DRY_RUN=1.
 run() {
-  local out=$1
-  shift
-  mkdir -p "$out"
-  selfright train --out "$out" --envs "$ENVS" "$@" >> "$out.log" 2>&1
+  if [ "$DRY" = 1 ]; then
+    printf '%q ' "$@" | sed 's/ $//'
+    echo
+  else
+    "$@"
+  fi
 }
 
-# resume_or_start OUT START_ARGS -- COMMON_ARGS: --resume if OUT has a checkpoint, else START_ARGS.
-resume_or_start() {
-  local out=$1
-  shift
-  local start=()
-  while [ "$1" != -- ]; do start+=("$1"); shift; done
-  shift
-  if has_ckpt "$out"; then run "$out" --resume "$@"; else run "$out" "${start[@]}" "$@"; fi
+# last_it DIR: the iteration of DIR's newest model_K.pt (-1: none).
+last_it() {
+  local k=${dry_last[$1]:--1} f n
+  for f in "$1"/model_*.pt; do
+    [ -e "$f" ] || continue
+    n=${f##*/model_}
+    n=${n%.pt}
+    case $n in *[!0-9]*) continue ;; esac
+    [ "$n" -gt "$k" ] && k=$n
+  done
+  echo "$k"
 }
 
-# The shipped flat and rough teachers predate two training fixes that are now on by default
-# (leaving the tile as a time-out, re-centring constant features on --init-from;
-# docs/training.md); the recipe turns them off for those to stay the one the shipped
-# checkpoints came from. The incline line (tall reference) came after the fixes.
-OLD=(--train.episode.no-off-tile-is-timeout --train.no-recenter-on-init)
+# step NAME STOP ARGS...: `selfright train --out ROOT/NAME --iterations STOP ARGS` unless the run
+# holds model_{STOP-1}.pt or a later checkpoint; a run with an earlier one goes on from it.
+step() {
+  local dir=$ROOT/$1 stop=$2 last a skip=0 args=()
+  shift 2
+  last=$(last_it "$dir")
+  if [ "$last" -ge $((stop - 1)) ]; then
+    echo "== $dir: model_$last.pt is there, skipped" >&2
+    return
+  fi
+  for a in "$@"; do
+    if [ "$skip" = 1 ]; then skip=0; continue; fi
+    if [ "$last" -ge 0 ] && [ "$a" = --init-from ]; then skip=1; continue; fi
+    args+=("$a")
+  done
+  [ "$last" -ge 0 ] && args+=(--resume)
+  echo "== $dir: to model_$((stop - 1)).pt" >&2
+  if [ "$DRY" = 1 ]; then
+    # shellcheck disable=SC2086
+    run selfright train --out "$dir" --iterations "$stop" "${args[@]}" $EXTRA
+    dry_last[$dir]=$((stop - 1))
+  else
+    mkdir -p "$dir"
+    # shellcheck disable=SC2086
+    selfright train --out "$dir" --iterations "$stop" "${args[@]}" $EXTRA >> "$dir/train.log" 2>&1
+  fi
+}
 
-case $stage in
-  flat-teacher)
-    f=(--role teacher --context flat --physics-threads 2 "${OLD[@]}")
-    # Iterations 0-1078 ran with z* = 0.32 m (the goal bar), the rest with the default 0.35 m.
-    has_ckpt runs/flat_teacher || run runs/flat_teacher "${f[@]}" --iterations 1079 --train.reward.target-height-m 0.32
-    run runs/flat_teacher "${f[@]}" --iterations 3446 --resume
-    ;;
-  context-teachers)
-    ft=runs/flat_teacher/model_3445.pt
-    (
-      resume_or_start runs/rough_teacher --init-from "$ft" -- --role teacher --context rough --physics-threads 1 \
-        --iterations 85 --train.ppo.desired-kl 0.005 "${OLD[@]}"
-      # The escape specialist: the flat teacher with its action std reset to 0.5, trained only from
-      # the tilted end states it stalls in; its iteration 966 labels the flat student's tilted states.
-      if ! has_ckpt runs/flat_escape; then
-        mkdir -p runs/flat_escape_init && cp runs/flat_teacher/train_meta.json runs/flat_escape_init/
-        python -c "import torch; c = torch.load('$ft', weights_only=False); c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, 'runs/flat_escape_init/model_3445.pt')"
-      fi
-      resume_or_start runs/flat_escape --init-from runs/flat_escape_init/model_3445.pt -- --role teacher --context flat \
-        --physics-threads 1 --iterations 967 --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
-        --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
-      # The rough escape specialist: the flat one trained on rough ground the same way; its
-      # iteration 1086 labels the rough student's tilted states.
-      resume_or_start runs/rough_escape --init-from runs/flat_escape/model_966.pt -- --role teacher --context rough \
-        --physics-threads 1 --iterations 1087 --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
-        --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
-    ) &
-    (
-      # Action 0 = the taller standing pose; its iteration 1271 (92.2 % validation) starts the incline teacher.
-      run runs/flat_teacher_tall --role teacher --context flat --physics-threads 1 --iterations 1272 \
-        --action-reference tall --train.reward.target-height-m 0.37 $(has_ckpt runs/flat_teacher_tall && echo --resume)
-      # The escape specialist's starting point: the incline teacher shipped until the seventeenth
-      # session (Table I, episodes not ended in a crouch), iteration 422.
-      resume_or_start runs/incline_teacher_plain --init-from runs/flat_teacher_tall/model_1271.pt -- --role teacher \
-        --context incline --physics-threads 1 --iterations 423 --action-reference tall --train.ppo.desired-kl 0.005 \
-        --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 --train.episode.curriculum
-      # Its escape specialist on the 20 deg slope, as the flat one; iteration 646 labels the incline student.
-      if ! has_ckpt runs/incline_escape; then
-        mkdir -p runs/incline_escape_init && cp runs/incline_teacher_plain/train_meta.json runs/incline_escape_init/
-        python -c "import torch; c = torch.load('runs/incline_teacher_plain/model_422.pt', weights_only=False); c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, 'runs/incline_escape_init/model_422.pt')"
-      fi
-      resume_or_start runs/incline_escape --init-from runs/incline_escape_init/model_422.pt -- --role teacher \
-        --context incline --physics-threads 1 --iterations 647 --action-reference tall --train.ppo.learning-rate 1.5e-5 \
-        --train.ppo.entropy-coef 0.01 --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 \
-        --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only
-      # The shipped incline teacher (seventeenth session): the same fine-tune with its episodes ended
-      # as terminal after 1 s crouched under the goal bar (a leaky count); iteration 1429 ships.
-      resume_or_start runs/incline_teacher --init-from runs/flat_teacher_tall/model_1271.pt -- --role teacher \
-        --context incline --physics-threads 1 --iterations 1430 --action-reference tall --train.ppo.desired-kl 0.005 \
-        --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 --train.episode.curriculum \
-        --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky
-    ) &
-    wait
-    ;;
-  students)
-    # The rough student, likewise from a tilt composite: the tall flat teacher (it stands taller than
-    # the rough teacher, which level 4 needs) where the trunk is upright within 45 deg, the rough escape
-    # specialist (a `stand` policy: its labels are converted) where it is tilted more; 512 envs,
-    # iteration 442 ships (chosen on seeds 4-11: docs/training.md).
-    ENVS=512 run runs/rough_student --role student --context rough --teacher runs/flat_teacher_tall/model_1271.pt \
-      --action-reference tall --physics-threads 1 --iterations 443 \
-      --train.distillation.fallback-teacher runs/rough_escape/model_1086.pt \
-      --train.distillation.fallback-tilt-deg 45 $(has_ckpt runs/rough_student && echo --resume) &
-    # The flat student learns from a composite: the flat teacher where the trunk is upright within
-    # 45 deg, the escape specialist where it is tilted more; 512 envs, iteration 360 ships (chosen on
-    # seeds 4-11, measured on seeds 0-3 and 12-19: docs/training.md).
-    ENVS=512 run runs/flat_student --role student --context flat --teacher runs/flat_teacher --physics-threads 1 \
-      --iterations 361 --train.distillation.fallback-teacher runs/flat_escape/model_966.pt \
-      --train.distillation.fallback-tilt-deg 45 $(has_ckpt runs/flat_student && echo --resume) &
-    # The incline student: 4x the batch, a 25-frame (0.5 s) history, the tilt composite of the
-    # incline teacher and its escape specialist, a wider network than its teachers' (512-256-128)
-    # and a moving average of its weights; its last checkpoint (iteration 299) ships, none chosen
-    # (docs/training.md, *A wider incline student*).
-    ENVS=512 run runs/incline_student --role student --context incline --teacher runs/incline_teacher \
-      --physics-threads 1 --iterations 300 --action-reference tall --train.distillation.student-history 25 \
-      --train.distillation.fallback-teacher runs/incline_escape/model_646.pt --train.distillation.fallback-tilt-deg 45 \
-      --train.distillation.ema-decay 0.97 --train.policy.hidden-dims 512 256 128 \
-      $(has_ckpt runs/incline_student && echo --resume) &
-    wait
-    ;;
-  ship)
-    for c in flat rough incline; do
-      for role in teacher student; do
-        name=$c
-        [ "$role" = teacher ] && name=$c-teacher
-        selfright evaluate --policy "runs/${c}_${role}" --grid "$c" --episodes 64 --seed 0 \
-          --out "results/${name}_${c}" --no-progress
-        notes=()
-        [ -f "docs/notes/$name.md" ] && notes=(--notes "docs/notes/$name.md")
-        selfright ship --run "runs/${c}_${role}" --name "$name" --evaluation "results/${name}_${c}" "${notes[@]}"
-      done
-    done
+# publish NAME CHECKPOINT CONTEXT [EVALUATE FLAGS...]: score the checkpoint as its model card
+# does and ship it as NAME.
+publish() {
+  local name=$1 ckpt=$2 context=$3 dest=()
+  shift 3
+  [ -n "${DEST:-}" ] && dest=(--dest "$DEST")
+  run selfright evaluate --policy "$ckpt" --grid "$context" --episodes 64 --seed 0 --out "$ROOT/eval/$name" \
+    --no-progress "$@"
+  run selfright ship --run "$ckpt" --name "$name" --evaluation "$ROOT/eval/$name" "${dest[@]}"
+}
+
+# MuJoCo's softer joint stops, which the flat lineage and the rough and incline runs from scratch
+# trained with (the benchmark's are 0.01 s).
+SOFT_STOPS=(--joint-stop-timeconst-s 0.02)
+
+flat_teacher() {
+  # PPO from scratch; z* = 0.32 m (the goal bar) for the first 1,079 iterations, the default
+  # 0.35 m after. Two recorded settings are no longer options: leaving the tile ended an episode
+  # as a terminal state (EpisodeConfig.off_tile_is_timeout now ends it as a time-out; on the
+  # flat plane no training episode left the tile), and episode starts were settled one by one
+  # (EpisodeConfig.prepare_starts settles them in batches: same distribution, another stream).
+  local f=(--role teacher --context flat --envs 128 --physics-threads 2 "${SOFT_STOPS[@]}" --train.keep-checkpoints 0)
+  step flat_teacher_best 1079 "${f[@]}" --train.reward.target-height-m 0.32
+  step flat_teacher_best 3446 "${f[@]}"
+}
+
+flat() {
+  flat_teacher
+  # The escape specialist: the flat teacher with its action std reset to 0.5, fine-tuned only
+  # from the tilted end states it stalls in.
+  local init=$ROOT/flat_teacher_best_std05
+  if [ "$(last_it "$ROOT/flat_escape_std05")" -lt 0 ] && [ ! -e "$init/model_3445.pt" ]; then
+    run mkdir -p "$init"
+    run cp "$ROOT/flat_teacher_best/train_meta.json" "$init/"
+    run python -c "import torch; c = torch.load('$ROOT/flat_teacher_best/model_3445.pt', weights_only=False); \
+c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, '$init/model_3445.pt')"
+  fi
+  step flat_escape_std05 967 --role teacher --context flat --init-from "$init/model_3445.pt" --envs 128 \
+    --physics-threads 2 "${SOFT_STOPS[@]}" --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
+    --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only --train.checkpoint-every-s 240 \
+    --train.keep-checkpoints 0
+  # The student of the pair: the teacher labels states upright within 45 deg, the specialist the rest.
+  step flat_student_tilt45_e512 361 --role student --context flat --teacher "$ROOT/flat_teacher_best/model_3445.pt" \
+    --envs 512 --physics-threads 1 "${SOFT_STOPS[@]}" \
+    --train.distillation.fallback-teacher "$ROOT/flat_escape_std05/model_966.pt" --train.distillation.fallback-tilt-deg 45 \
+    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
+  # `flat`: that student's own labels blended over 2 s to the tall stance after 1 s upright.
+  step flat_student_stance 395 --role student --context flat --teacher "$ROOT/flat_student_tilt45_e512/model_360.pt" \
+    --envs 512 --physics-threads 1 "${SOFT_STOPS[@]}" --train.distillation.stance-ramp-s 2.0 \
+    --train.distillation.stance-delay-s 1.0 --train.validation.episodes 128 --train.checkpoint-every-s 150 \
+    --train.keep-checkpoints 0
+}
+
+rough_teacher() {
+  # PPO from scratch on rough ground with the roughness curriculum, ideal servos.
+  step rough_scratch 2217 --role teacher --context rough --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" \
+    --action-reference tall --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.38 \
+    --train.episode.curriculum --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
+    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
+  # `rough-teacher`: PPO fine-tune under DC motors, no curriculum.
+  step rough_dc_teacher 15833 --role teacher --context rough --init-from "$ROOT/rough_scratch/model_2216.pt" \
+    --motor dcmotor --action-reference tall --envs 128 --physics-threads 2 --train.randomization.friction 0.6 1.2 \
+    --train.reward.target-height-m 0.38 --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
+    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
+}
+
+rough() {
+  rough_teacher
+  # `rough`: 25 frames, 512-256-128 units, DC motors (recorded with networks on a GPU:
+  # EXTRA="--device cuda --physics-threads 8"; 2 CPU cores train it as well).
+  step gpu_rough_h25w 722 --role student --context rough --teacher "$ROOT/rough_dc_teacher/model_15832.pt" \
+    --motor dcmotor --action-reference tall --envs 256 --physics-threads 2 --torch-threads 1 \
+    --train.randomization.friction 0.6 1.2 --train.distillation.student-history 25 \
+    --train.policy.hidden-dims 512 256 128 --train.validation.episodes 64 --train.checkpoint-every-s 300 \
+    --train.keep-checkpoints 0
+}
+
+incline_teacher() {
+  # PPO from scratch with the slope curriculum 5 -> 20 deg, ideal servos.
+  step incline_scratch_narrow 1929 --role teacher --context incline --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" \
+    --action-reference tall --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 \
+    --train.episode.curriculum --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
+    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
+  # PPO fine-tune under DC motors on the 20 deg slope.
+  step incline_dc_teacher 1174 --role teacher --context incline --init-from "$ROOT/incline_scratch_narrow/model_1928.pt" \
+    --motor dcmotor --action-reference tall --envs 128 --physics-threads 1 --train.randomization.friction 0.6 1.2 \
+    --train.reward.target-height-m 0.37 --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
+    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
+  # `incline-teacher`: the same at 512 envs and half the KL target.
+  step incline_dc_teacher_e512 396 --role teacher --context incline --init-from "$ROOT/incline_dc_teacher/model_1173.pt" \
+    --motor dcmotor --action-reference tall --envs 512 --physics-threads 2 --train.randomization.friction 0.6 1.2 \
+    --train.reward.target-height-m 0.37 --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
+    --train.ppo.desired-kl 0.005 --train.validation.episodes 128 --train.checkpoint-every-s 480 \
+    --train.keep-checkpoints 0
+}
+
+incline() {
+  incline_teacher
+  # The distillation, 25 frames, in the DC envelope (the ideal servos with the targets held to
+  # the DC motors' torque-speed limit, as the student is scored); model_479 was chosen on
+  # evaluation seeds 4-11 among its checkpoints from 130 on (scripts/select_checkpoints.py).
+  step incline_h25_sel_seed31 480 --role student --context incline --teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" \
+    --seed 31 --motor envelope --action-reference tall --envs 256 --physics-threads 1 --torch-threads 1 \
+    --train.randomization.friction 0.6 1.2 --train.distillation.student-history 25 --train.validation.episodes 64 \
+    --train.checkpoint-every-s 120 --train.keep-checkpoints 0
+  # `incline`: that student's labels moved 30 % of the way to the tall stance over 1 s after 1 s
+  # upright within 35 deg.
+  step incline_h25_sel31_479_stance03 340 --role student --context incline \
+    --teacher "$ROOT/incline_h25_sel_seed31/model_479.pt" --seed 31 --motor envelope --action-reference tall \
+    --envs 256 --physics-threads 1 --torch-threads 1 --train.randomization.friction 0.6 1.2 \
+    --train.distillation.stance-ramp-s 1.0 --train.distillation.stance-delay-s 1.0 \
+    --train.distillation.stance-tilt-deg 35 --train.distillation.stance-weight 0.3 --train.validation.episodes 64 \
+    --train.checkpoint-every-s 60 --train.keep-checkpoints 0
+}
+
+ship_flat_teacher() { flat_teacher; publish flat-teacher "$ROOT/flat_teacher_best/model_3445.pt" flat; }
+ship_flat() { flat; publish flat "$ROOT/flat_student_stance/model_394.pt" flat; }
+ship_rough_teacher() { rough_teacher; publish rough-teacher "$ROOT/rough_dc_teacher/model_15832.pt" rough; }
+ship_rough() { rough; publish rough "$ROOT/gpu_rough_h25w/model_721.pt" rough; }
+ship_incline_teacher() {
+  incline_teacher
+  publish incline-teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" incline --motor dcmotor
+}
+ship_incline() { incline; publish incline "$ROOT/incline_h25_sel31_479_stance03/model_339.pt" incline; }
+
+case ${1:-} in
+  flat-teacher) ship_flat_teacher ;;
+  flat) ship_flat ;;
+  rough-teacher) ship_rough_teacher ;;
+  rough) ship_rough ;;
+  incline-teacher) ship_incline_teacher ;;
+  incline) ship_incline ;;
+  all)
+    ship_flat_teacher
+    ship_flat
+    ship_rough_teacher
+    ship_rough
+    ship_incline_teacher
+    ship_incline
     ;;
   *)
-    echo "unknown stage $stage (flat-teacher | context-teachers | students | ship)" >&2
+    echo "$usage" >&2
     exit 2
     ;;
 esac

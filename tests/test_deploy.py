@@ -70,37 +70,3 @@ def test_export_by_name_writes_the_contract_and_a_teacher_has_none(tmp_path, mon
     with pytest.raises(ValueError, match="no deployment contract"):
         read_spec(teacher)
     assert main([str(teacher)]) == 1
-
-
-def test_controller_carries_a_recurrent_students_hidden_state(tmp_path):
-    """A GRU student (rsl_rl ``RNNModel``): the controller feeds its hidden state back step by step."""
-    import torch
-    from rsl_rl.models import RNNModel
-    from tensordict import TensorDict
-
-    from selfright.policies.actor import actor_from_checkpoint, export_onnx
-
-    torch.manual_seed(0)
-    obs = TensorDict({"student": torch.zeros(4, 42)}, batch_size=[4])
-    model = RNNModel(obs, {"student": ["student"]}, "student", 12, hidden_dims=[32, 32], obs_normalization=False,
-                     distribution_cfg={"class_name": "GaussianDistribution", "init_std": 1.0},
-                     rnn_type="gru", rnn_hidden_dim=16)
-    actor = actor_from_checkpoint({"student_state_dict": model.eval().state_dict()},
-                                  {"action_reference": "stand", "action_scale_rad": 0.5})
-    export_onnx(actor, tmp_path / "gru.onnx")
-    ctrl = OnnxController(tmp_path / "gru.onnx")
-    assert ctrl.spec.gru_dim == 16 and not ctrl.envelope
-    rng = np.random.default_rng(0)
-    h = torch.zeros(1, 16)
-    for _ in range(5):
-        quat = rng.normal(size=4)
-        raw = quat / np.linalg.norm(quat), rng.normal(size=3), rng.normal(size=12) * 0.3, rng.normal(size=12)
-        x = torch.from_numpy(ctrl.frame(*raw))[None]
-        with torch.no_grad():
-            a, h = actor(x, h)
-        target = ctrl.step(*raw)
-        np.testing.assert_allclose(ctrl.prev_action, a[0].clamp(-10, 10).numpy(), atol=1e-5)
-        expected = np.clip(np.asarray(ctrl.spec.action_reference_pose_rad) + 0.5 * ctrl.prev_action,
-                           ctrl.spec.joint_low_rad, ctrl.spec.joint_high_rad)
-        np.testing.assert_allclose(target, expected, atol=1e-6)
-    assert np.abs(h.numpy()).max() > 0.01  # the state moved

@@ -251,17 +251,11 @@ def run_bench(a: BenchSim) -> None:
 
 
 def _commands() -> dict[str, type]:
-    cmds: dict[str, type] = {"evaluate": Evaluate, "compare": Compare, "replay": Replay, "scene": Scene, "bench-sim": BenchSim}
-    try:
-        from selfright.train.commands import ExportArgs, TrainArgs
-        from selfright.train.ship import ShipArgs
+    from selfright.train.commands import ExportArgs, TrainArgs
+    from selfright.train.ship import ShipArgs
 
-        cmds["train"] = TrainArgs
-        cmds["export"] = ExportArgs
-        cmds["ship"] = ShipArgs
-    except ImportError:  # training extras not importable: the benchmark still works
-        pass
-    return cmds
+    return {"evaluate": Evaluate, "compare": Compare, "replay": Replay, "scene": Scene, "bench-sim": BenchSim,
+            "train": TrainArgs, "export": ExportArgs, "ship": ShipArgs}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -72,25 +72,24 @@ class RobotConfig:
     joint's speed at the start of the step (``selfright.sim.dc_envelope``): what a policy
     trained with ``dcmotor`` runs in on the ideal servos, applied by the env to any policy, so
     one can be trained with the limit in the loop and scored on the benchmark's servos as it
-    was trained (docs/training.md, *Training in the DC torque envelope*). ``dcmotor``: MuJoCo's
+    was trained (docs/benchmark.md, *Motor models*). ``dcmotor``: MuJoCo's
     DC-motor actuator run as a current-controlled driver (``input="pos"``, torque-space PD gains
     ``kp``, ``kd``) whose drive voltage saturates, so the torque it can give falls linearly to 0
     at the motors' rated speed (``RobotSpec.rated_joint_speed``, 21 rad/s on the A1), as on the
     real robot. Policies trained with ideal servos rely on faster joints: with ``dcmotor`` they
-    score far lower (docs/training.md, *A DC-motor model*). Policies trained with ``dcmotor``
+    score far lower (docs/training.md, *Choices that are not in the seed*). Policies trained with ``dcmotor``
     run on the ideal servos in the DC torque envelope (``selfright.policies.torque_envelope``).
     Opt-in; the CPU engine only."""
     motor_speed_rad_s: float | None = None
     """``dcmotor`` and ``envelope`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
     robot's rated speed (``RobotSpec.rated_joint_speed``). Faster than the real motors, it moves
-    the model toward the ideal servos (a curriculum from one to the other; docs/training.md,
-    *The incline under DC motors*)."""
+    the model toward the ideal servos."""
     joint_stop_timeconst_s: float = 0.01
     """Stiffness of the joints' hard stops: MuJoCo's joint-limit ``solreflimit`` time constant
     (s); smaller = stiffer, at least 2 × ``SimConfig.timestep_s`` (MuJoCo's stable minimum).
     MuJoCo's default, 0.02 s, let a saturated motor hold a knee 0.28 rad past its stop and
     impacts drive joints up to 0.4 rad past theirs; at 0.01 s the same knee stays within
-    0.02 rad (``tests/test_model.py``; README, *What the benchmark measures*)."""
+    0.02 rad (``tests/robots/test_model.py``; docs/benchmark.md, *Choices where the seed is vague*)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -121,8 +120,8 @@ class ActionConfig:
     """``stand``: the robot's standing pose (action 0 = stand, as in legged_gym-style
     controllers); ``current``: the joint angles at the start of the control step (MuJoCo
     Playground's Go1 get-up); ``tall``: a standing pose with straighter legs
-    (``RobotSpec.tall_pose``). The seed does not say; the shipped policies use ``stand``
-    (docs/training.md: what was measured and why)."""
+    (``RobotSpec.tall_pose``). The seed does not say; ``flat`` and its teacher use ``stand``,
+    the rough and incline lineages ``tall`` (docs/training.md, *Choices that are not in the seed*)."""
     scale_rad: float = 0.5
     """Radians of joint target per unit action."""
     clip: float = 10.0

@@ -13,8 +13,7 @@ control loop that needs only numpy and onnxruntime.
    network's own last output clipped to ±``action_clip``; zeros on the first step).
 3. With ``obs_history`` H > 1 the network reads the last H frames, oldest first; at the start
    every slot holds the first frame.
-4. Run the network: ``actions`` (1, J) from ``obs`` (1, H · frame) (a recurrent one also takes
-   ``hidden`` and returns ``hidden_out``; zeros at the start).
+4. Run the network: ``actions`` (1, J) from ``obs`` (1, H · frame).
 5. Joint targets = reference pose (``action_reference_pose_rad``, or the angles read in step 1
    for ``current``) + ``action_scale_rad`` × clip(action, ±``action_clip``), clipped to the joint
    range. A policy trained against DC-motor limits (``envelope_speed_rad_s`` set) had its targets
@@ -82,8 +81,6 @@ class DeploymentSpec:
     """Frames the network reads, oldest first."""
     obs_columns: tuple[str, ...]
     """The columns of one frame."""
-    gru_dim: int
-    """Hidden size of a recurrent network's state (``hidden`` input); 0 = feed-forward."""
     motor: str
     """Motor model it trained with (``RobotConfig.motor``; empty if not recorded: ``ideal``)."""
     envelope_speed_rad_s: float | None
@@ -96,6 +93,8 @@ class DeploymentSpec:
     @staticmethod
     def from_json(text: str) -> DeploymentSpec:
         d = json.loads(text)
+        if d.pop("gru_dim", 0):
+            raise ValueError("this deployment contract is for a recurrent network; only feed-forward ones are supported")
         tuples = ("joint_names", "joint_low_rad", "joint_high_rad", "nominal_pose_rad", "obs_columns")
         d.update({k: tuple(d[k]) for k in tuples})
         if d["action_reference_pose_rad"] is not None:
@@ -147,7 +146,6 @@ def deployment_spec(meta: Any, robot_cfg: Any = None, action_cfg: Any = None, si
         joint_vel_scale=JOINT_VEL_SCALE,
         obs_history=meta.obs_history,
         obs_columns=obs_columns(tuple(robot.joint_names)),
-        gru_dim=meta.gru_dim,
         motor=motor,
         envelope_speed_rad_s=speed,
     )
@@ -207,11 +205,10 @@ class OnnxController:
         self.reset()
 
     def reset(self) -> None:
-        """Start a new episode: no previous action, an empty history, a zero hidden state."""
+        """Start a new episode: no previous action, an empty history."""
         J = len(self.spec.joint_names)
         self.prev_action = np.zeros(J, dtype=np.float32)
         self.frames: list[np.ndarray] = []
-        self.hidden = np.zeros((1, self.spec.gru_dim), dtype=np.float32) if self.spec.gru_dim else None
 
     def frame(self, quat_wxyz: np.ndarray, gyro: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """One observation frame (``spec.obs_columns``) from the raw readings."""
@@ -227,12 +224,7 @@ class OnnxController:
         s = self.spec
         f = self.frame(quat_wxyz, gyro, q, qd)
         self.frames = (self.frames or [f] * s.obs_history)[1:] + [f]
-        feeds = {"obs": np.concatenate(self.frames)[None]}
-        if self.hidden is not None:
-            feeds["hidden"] = self.hidden
-        out = self.session.run(None, feeds)
-        if self.hidden is not None:
-            self.hidden = out[1]
+        out = self.session.run(None, {"obs": np.concatenate(self.frames)[None]})
         action = np.clip(out[0][0], -s.action_clip, s.action_clip)
         self.prev_action = action.astype(np.float32)
         q, qd = np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64)

@@ -2,7 +2,7 @@
 
 A seed's episode rows are byte-identical on one machine but not across CPU generations (the
 float kernels MuJoCo and torch pick differ in the last bits, and a fall's chaotic contacts grow
-that into other outcomes; README, *Seeds*), so evaluation summaries and model cards name it.
+that into other outcomes; docs/benchmark.md, *Seeds and determinism*), so evaluation summaries and model cards name it.
 """
 
 from __future__ import annotations

@@ -4,9 +4,9 @@ import numpy as np
 import torch
 
 
-def test_teacher_height_column_is_the_trunk_height():
+def test_privileged_height_column_is_the_trunk_height():
     from selfright.config import BenchmarkConfig
-    from selfright.env.observations import teacher_height_column
+    from selfright.env.observations import privileged_columns
     from selfright.env.recovery_env import RecoveryEnv
     from selfright.env.world import build_world
     from selfright.evaluate.runner import context_config
@@ -18,5 +18,5 @@ def test_teacher_height_column_is_the_trunk_height():
     ids = np.arange(2)
     env.reset(ids, np.zeros(2, int), [np.random.default_rng(s) for s in (1, 2)])
     obs = env.observe(ids, ("teacher",))["teacher"]
-    torch.testing.assert_close(obs[:, teacher_height_column(12)], env.robot_state(ids).height.float())
+    torch.testing.assert_close(obs[:, privileged_columns(12)["height"].start], env.robot_state(ids).height.float())
     env.close()

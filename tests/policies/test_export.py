@@ -154,38 +154,21 @@ def test_actor_rows_do_not_depend_on_the_batch():
     assert torch.equal(out, alone[:9])
 
 
-def test_gru_actor_matches_rsl_rl_and_rows_do_not_depend_on_the_batch():
-    """A recurrent student from an rsl_rl ``RNNModel`` checkpoint: step by step it gives rsl_rl's
-    actions, and ``forward_rows`` (a hand-written GRU step) gives each row the same bits
-    whatever rows share its batch."""
-    from rsl_rl.models import RNNModel
-
-    torch.manual_seed(0)
-    obs = TensorDict({"student": torch.zeros(4, 42)}, batch_size=[4])
-    model = RNNModel(obs, {"student": ["student"]}, "student", 12, hidden_dims=HIDDEN, obs_normalization=True,
-                     distribution_cfg={"class_name": "GaussianDistribution", "init_std": 1.0},
-                     rnn_type="gru", rnn_hidden_dim=16)
-    model.train()
-    model.update_normalization(TensorDict({"student": 3.0 + 2.0 * torch.randn(256, 42)}, batch_size=[256]))
-    model.eval()
-    actor = actor_from_checkpoint({"student_state_dict": model.state_dict()})
-    assert actor.recurrent and actor.meta.gru_dim == 16 and actor.meta.obs_dim == 42
-    xs = [random_obs(50, 42, seed=s) for s in range(3)]
-    h = h_rows = torch.zeros(50, 16)
-    with torch.no_grad():
-        model.reset(hidden_state=None)
-        for x in xs:
-            expected = model(TensorDict({"student": x}, batch_size=[50]))
-            a, h = actor(x, h)
-            a_rows, h_new = actor.forward_rows(x, h_rows)
-            torch.testing.assert_close(a, expected, atol=1e-5, rtol=0)
-            torch.testing.assert_close(a_rows, expected, atol=1e-5, rtol=0)
-            for start, size in [(0, 1), (3, 7), (10, 40)]:
-                part, h_part = actor.forward_rows(x[start : start + size], h_rows[start : start + size])
-                assert torch.equal(part, a_rows[start : start + size]) and torch.equal(h_part, h_new[start : start + size])
-            h_rows = h_new
-    with pytest.raises(ValueError, match="hidden state"):
-        actor(xs[0])
+def test_only_feed_forward_actors_load():
+    """Metadata of older files may record the architecture keys at their no-op values (loaded);
+    a recurrent or state-dependent-std actor is refused in one line."""
+    sd = rsl_actor(42, "student").state_dict()
+    legacy = {"gru_dim": 0, "estimator_dims": [], "state_dependent_std": False}
+    assert actor_from_checkpoint({"student_state_dict": sd}, legacy).meta.obs_dim == 42
+    for hint in ({"gru_dim": 16}, {"estimator_dims": [64]}, {"state_dependent_std": True}):
+        with pytest.raises(ValueError, match="only feed-forward actors"):
+            actor_from_checkpoint({"student_state_dict": sd}, hint)
+    rnn = {**sd, "rnn.rnn.weight_hh_l0": torch.zeros(48, 16)}
+    with pytest.raises(ValueError, match="rnn: only feed-forward actors"):
+        actor_from_checkpoint({"student_state_dict": rnn})
+    no_std = {k: v for k, v in rsl_actor(79, "teacher").state_dict().items() if not k.startswith("distribution.")}
+    with pytest.raises(ValueError, match="state-dependent std"):
+        actor_from_checkpoint({"actor_state_dict": no_std})
 
 
 def test_onnx_policy_rows_do_not_depend_on_the_batch(tmp_path: Path):

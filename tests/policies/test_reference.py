@@ -79,34 +79,3 @@ def test_multiplexer_policies_are_adapted_one_by_one_and_current_is_refused():
     assert not isinstance(out.policies["rough"], ShiftedReference)
     with pytest.raises(ValueError, match="--action-reference tall"):
         check_action_mapping(_linear_policy("tall"), ActionConfig(reference="current"), "linear")
-
-
-def test_composite_teacher_shifts_a_fallback_of_another_reference():
-    """In distillation, a fallback teacher trained around another pose labels in the student's
-    units: its action shifted by the offset, the previous action it sees shifted back, except
-    on an episode's first step (where the env reports 0)."""
-    from tensordict import TensorDict
-
-    from selfright.env.observations import prev_action_columns
-    from selfright.policies.stall import TiltSwitch
-    from selfright.train.fallback_teacher import FallbackTeacher
-
-    cols = prev_action_columns(12)
-    offset = torch.linspace(-0.4, 0.4, 12)
-    composite = FallbackTeacher(
-        primary=lambda o: torch.zeros(len(o["teacher"]), 12),
-        fallback=lambda o: o["teacher"][:, cols].clone(),  # echoes the previous action it sees
-        num_envs=2, switch=TiltSwitch(45.0), fallback_offset=offset,
-    )
-    x = torch.zeros(2, 60)
-    x[:, 2] = 1.0  # both upside down: the fallback acts
-    x[:, cols] = torch.randn(2, 12)
-    obs = TensorDict({"teacher": x}, batch_size=[2])
-    torch.testing.assert_close(composite(obs), x[:, cols] + offset)  # first step: nothing shifted back
-    torch.testing.assert_close(composite(obs), x[:, cols])  # later: seen in its own units, then shifted
-    composite.reset(torch.tensor([True, False]))
-    out = composite(obs)
-    torch.testing.assert_close(out[0], x[0, cols] + offset)
-    torch.testing.assert_close(out[1], x[1, cols])
-    x[1, 2] = -1.0  # env 1 upright: the primary's label, unshifted
-    assert torch.equal(composite(TensorDict({"teacher": x}, batch_size=[2]))[1], torch.zeros(12))

@@ -221,8 +221,6 @@ def _evaluate(policy, worlds, train: TrainConfig, steps: int = 100, n: int = 32,
 SMOKE_CFG = dataclasses.replace(CFG, action=ActionConfig(reference="current"))
 
 
-
-
 def test_ppo_learning_signal_moves():
     """40 PPO iterations × 16 envs (~15 s): on the same 32 falls, the trained mean policy earns
     more reward per step and is more upright than the initial one."""
@@ -306,8 +304,6 @@ def test_ship_checks_notes_before_writing(tmp_path: Path):
     assert not (dest / "flat.pt").exists()
 
 
-
-
 def test_a_students_reward_line_is_the_first_trainer_up_its_chain_of_students(tmp_path: Path):
     table = to_dict(RewardConfig())
     runs = {"teacher": {"role": "teacher", "train_config": {"reward": {**table, "target_height_m": 0.38}}},
@@ -329,8 +325,6 @@ def test_card_record_reads_back_what_a_card_states():
     assert (rec["env_steps"], rec["iterations_done"], rec["num_envs"], rec["wall_clock_s"]) == (261_120, 85, 128, 180.0)
     assert reward_summary({"role": "teacher", **rec}) == "the seed's Table I exactly (z* = 0.37 m)"
     assert "train_config" not in card_record("- **Reward**: **not** the seed's Table I: goal-set term weight 8.0")
-
-
 
 
 def _distil_tiny_student(tmp_path: Path, **distillation: Any) -> tuple[TrainingRun, Path, Path, Path]:
@@ -376,112 +370,34 @@ def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path
     assert "its last 2 frames stacked" in _evaluate_and_ship(tmp_path, onnx_path, student)
 
 
-
-
-
-
-def test_student_distils_from_a_teacher_with_a_stall_fallback(tmp_path: Path):
-    """--train.distillation.fallback-teacher: the composite labels with the second teacher once
-    the robot has lain still, per env; a resumed student keeps both teachers."""
+def test_student_distils_from_a_teacher_with_a_tilt_fallback(tmp_path: Path):
+    """--train.distillation.fallback-teacher with --train.distillation.fallback-tilt-deg: the
+    composite labels exactly the tilted-over rows with the second teacher; a resumed student
+    keeps both teachers."""
     from selfright.train.fallback_teacher import FallbackTeacher
 
     run(spec(tmp_path / "a"))
     run(spec(tmp_path / "b", seed=1))
     train = dataclasses.replace(TINY, distillation=dataclasses.replace(
-        TINY.distillation, fallback_teacher=str(tmp_path / "b"), stall_s=0.02, fallback_s=0.04))
+        TINY.distillation, fallback_teacher=str(tmp_path / "b"), fallback_tilt_deg=45.0))
     r = run(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train))
     teacher = r.runner.alg.teacher
     assert isinstance(teacher, FallbackTeacher) and all(math.isfinite(v) for v in r.last_loss.values())
-    # A robot lying still on its back: the second teacher labels from the first stalled step, for 2 steps.
     obs = r.env.get_observations()
     x = obs["teacher"].clone()
-    x[:, 2], x[:, 3:6], x[:, 18:30] = 1.0, 0.0, 0.0
+    x[:2, 2], x[2:, 2] = -1.0, 1.0  # rows 0 and 1 upright, rows 2 and 3 on their back
     obs["teacher"] = x
-    teacher.reset(torch.ones(4, dtype=torch.bool))
+    got = teacher(obs)
     a, b = teacher.primary(obs), teacher.fallback(obs)
-    got = [teacher(obs) for _ in range(3)]
-    torch.testing.assert_close(got[0], b)
-    torch.testing.assert_close(got[1], b)
-    torch.testing.assert_close(got[2], b)  # still lying: a new stall is detected at once (stall_s = one step)
+    torch.testing.assert_close(got[:2], a[:2])
+    torch.testing.assert_close(got[2:], b[2:])
+    assert not torch.equal(a, b)
     resumed = TrainingRun(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train, iterations=2, resume=True))
     resumed.setup()
     assert isinstance(resumed.runner.alg.teacher, FallbackTeacher)
     torch.testing.assert_close(resumed.runner.alg.teacher.fallback(obs), b)
-    assert not torch.equal(a, b)
-    # The tilt rule: the second teacher labels exactly the tilted-over rows, whatever came before.
-    tilt = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, fallback_tilt_deg=45.0))
-    t = TrainingRun(spec(tmp_path / "student_tilt", role="student", teacher=tmp_path / "a", train=tilt))
-    t.setup()
-    x[:2, 2] = -1.0  # rows 0 and 1 upright, rows 2 and 3 on their back
-    obs["teacher"] = x
-    got = t.runner.alg.teacher(obs)
-    torch.testing.assert_close(got[:2], a_up := t.runner.alg.teacher.primary(obs)[:2])
-    torch.testing.assert_close(got[2:], t.runner.alg.teacher.fallback(obs)[2:])
-    assert not torch.equal(a_up, t.runner.alg.teacher.fallback(obs)[:2])
-
-
-
-
-
-
-
-
-
-
-
-
-def test_stance_teacher_leans_its_stance_to_gravity():
-    """--train.distillation.stance-lean: the stance the labels blend to has its thighs turned by
-    the trunk's pitch (read from the projected gravity each step)."""
-    import math
-
-    from selfright.policies.pose_blend import LeanedPose
-    from selfright.train.stance_teacher import StanceTeacher
-
-    base = lambda x: torch.zeros(x.shape[0], 12)  # noqa: E731
-    lean = np.zeros((2, 12))
-    lean[1, 1::3] = 2.0  # action units per rad of pitch on the thighs
-    teacher = StanceTeacher(base, "student", 2, 35.0, 0, 1, LeanedPose(torch.zeros(12), lean))
-    a = math.radians(20)
-    x = torch.zeros(2, 42)
-    x[0, :3] = torch.tensor([0.0, 0.0, -1.0])
-    x[1, :3] = torch.tensor([-math.sin(a), 0.0, -math.cos(a)])  # nose up 20°, as facing up the incline
-    labels = teacher({"teacher": x, "student": x})
-    torch.testing.assert_close(labels[0], torch.zeros(12))
-    torch.testing.assert_close(labels[1, 1::3], torch.full((4,), 2.0 * a))
-    assert labels[1, 0::3].abs().max() == 0.0 and labels[1, 2::3].abs().max() == 0.0
-
-
-def test_stance_teacher_holds_the_previous_action_once_still_over_the_bar():
-    """--train.distillation.hold-after-s: a robot upright, over the height, with its trunk and
-    joints still for the delay is labelled with the action it took the step before; one that
-    moves, stands under the height or tilts over is labelled by the base; an episode's end resets
-    the count."""
-    from selfright.env.observations import JOINT_VEL_SCALE, joint_vel_columns, prev_action_columns, privileged_columns
-    from selfright.train.stance_teacher import StanceTeacher, StillHold
-
-    priv = privileged_columns(12)
-    width = priv["factors"].stop
-    base = lambda x: torch.zeros(x.shape[0], 12)  # noqa: E731
-    hold = StillHold(4, 12, delay_steps=2, height_m=0.32, speed_mps=0.1, joint_speed_rad_s=1.0)
-    teacher = StanceTeacher(base, "student", 4, 15.0, 0, 1, None, hold=hold)
-    x = torch.zeros(4, width)
-    x[:, 2] = -1.0  # upright
-    x[:, priv["height"].start] = torch.tensor([0.35, 0.30, 0.35, 0.35])  # env 1 under the bar
-    x[2, priv["velocity"].start] = 0.5  # env 2's trunk moves
-    x[3, joint_vel_columns(12).start] = 3.0 * JOINT_VEL_SCALE  # env 3 has a leg in mid-step
-    x[:, prev_action_columns(12)] = 0.7
-    obs = {"teacher": x, "student": x[:, :42]}
-    assert torch.equal(teacher(obs), torch.zeros(4, 12))  # still for one step: not yet
-    labels = teacher(obs)
-    torch.testing.assert_close(labels[0], torch.full((12,), 0.7))  # held: the previous action
-    assert torch.equal(labels[1:], torch.zeros(3, 12))
-    teacher.reset(torch.tensor([True, False, False, False]))
-    assert torch.equal(teacher(obs)[0], torch.zeros(12))  # a new episode counts again
-    tilted = x.clone()
-    tilted[:, 0:3] = torch.tensor([1.0, 0.0, 0.0])
-    assert torch.equal(teacher({"teacher": tilted, "student": tilted[:, :42]}), torch.zeros(4, 12))
-    with pytest.raises(ValueError, match="delay"):
-        StillHold(4, 12, 0, 0.32, 0.1, 1.0)
+    no_tilt = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, fallback_tilt_deg=0.0))
+    with pytest.raises(ValueError, match="fallback-tilt-deg"):
+        TrainingRun(spec(tmp_path / "student_no_tilt", role="student", teacher=tmp_path / "a", train=no_tilt)).setup()
 
 

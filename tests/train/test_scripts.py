@@ -1,29 +1,28 @@
-"""The diagnostic scripts run and print what their docs promise."""
+"""The scripts in scripts/ run and print what their headers promise; the recipe
+(``scripts/train_policies.sh``) parses as ``selfright train`` and resolves to the recorded
+configuration of each shipped policy's run."""
 
 from __future__ import annotations
 
+import json
+import os
 import runpy
+import shlex
+import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-SCRIPTS = Path(__file__).resolve().parents[2] / "scripts"
+REPO = Path(__file__).resolve().parents[2]
+SCRIPTS = REPO / "scripts"
 
 
 def run_script(name: str, args: list[str], monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(sys, "argv", [name, *args])
     runpy.run_path(str(SCRIPTS / name), run_name="__main__")
-
-
-def episode_rows(out: Path) -> list[tuple[str, str, str, str]]:
-    """(episode, success, TTR, energy) of each row of an evaluation's ``episodes.csv``."""
-    import csv
-
-    with (out / "episodes.csv").open() as fh:
-        return [(r["episode"], r["success"], r["ttr_s"], r["energy_j"]) for r in csv.DictReader(fh)]
-
 
 
 
@@ -40,20 +39,338 @@ def test_rough_ceiling_is_a_fraction_per_tile(monkeypatch, capsys):
     assert float(mean[2].rstrip("%")) == pytest.approx(np.mean([float(r[3].rstrip("%")) for r in rows]), abs=0.06)
 
 
+def test_factor_sweep_sets_walls_friction_and_compliance(tmp_path, monkeypatch, capsys):
+    import json
+
+    for factor, values, recorded in (("wall_gap_ratio", ["0", "2"], [None, 2.0]), ("friction", ["0.5"], [0.5]),
+                                     ("ground_timeconst_s", ["0.05"], [0.05])):
+        out = tmp_path / factor
+        args = ["--policies", "zero", "--grid", "tiny", "--factor", factor, "--values", *values, "--episodes", "1",
+                "--seeds", "0", "--out", str(out)]
+        run_script("factor_sweep.py", args, monkeypatch)
+        header = capsys.readouterr().out.splitlines()[1]
+        label = {"wall_gap_ratio": "walls", "friction": "friction", "ground_timeconst_s": "ground"}[factor]
+        assert header == "| policy | " + " | ".join(f"{label} {v}" for v in values) + " |"
+        for v, want in zip(values, recorded):
+            summary = json.loads((out / "zero" / f"{label}{v}" / "s0" / "summary.json").read_text())
+            assert summary["config"]["eval"][factor] == want
 
 
+def test_select_checkpoints_expands_runs_scores_each_once_and_ranks(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    run = tmp_path / "runs" / "cand"
+    run.mkdir(parents=True)
+    src = Path("runs/incline_h25_sel31_479_stance03")  # committed: the shipped incline's run
+    shutil.copy(src / "train_meta.json", run / "train_meta.json")
+    for k in (0, 1, 2, 3):
+        shutil.copy(src / "model_339.pt", run / f"model_{k}.pt")
+    shutil.copy(src / "model_339.pt", run / "model_best.pt")
+    mod = runpy.run_path(str(SCRIPTS / "select_checkpoints.py"))
+    assert [p.name for p in mod["expand"]((run,), every=2)] == ["model_1.pt", "model_3.pt"]  # every 2nd and the last
+    assert [p.name for p in mod["expand"]((run, run / "model_3.pt"), min_iteration=3)] == ["model_3.pt"]
+    with pytest.raises(ValueError, match="numbered"):
+        mod["expand"]((run / "model_best.pt",))
+    out = tmp_path / "sel"
+    args = [str(run / "model_2.pt"), str(run / "model_3.pt"), "--grid", "incline", "--seeds", "4",
+            "--episodes", "1", "--threads", "1", "--out", str(out)]
+    run_script("select_checkpoints.py", args, monkeypatch)
+    first = capsys.readouterr().out
+    assert "ranked on incline, seeds 4" in first and first.count("/    1  ") == 2
+    summary = out / "cand_3" / "s4" / "summary.json"
+    stamp = summary.stat().st_mtime_ns
+    run_script("select_checkpoints.py", args, monkeypatch)  # a second call reads the results it left
+    assert summary.stat().st_mtime_ns == stamp and capsys.readouterr().out == first
 
 
+def test_remeasure_cards_rewrites_each_evaluated_cards_success_line(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    from selfright.policies.registry import CHECKPOINT_DIR
+    from selfright.train.ship import SUCCESS_PREFIX
+
+    dest, evals = tmp_path / "checkpoints", tmp_path / "remeasure"
+    dest.mkdir()
+    shutil.copy(CHECKPOINT_DIR / "flat.md", dest / "flat.md")
+    (evals / "flat").mkdir(parents=True)
+    overall = {"n": 64, "successes": 48, "success_rate": 0.75, "success_ci95": [0.63, 0.84], "ttr_mean_s": 2.0,
+               "dtr_mean_m": 0.5}
+    (evals / "flat" / "summary.json").write_text(json.dumps(
+        {"policy": "flat", "grid": "flat", "episodes_per_cell": 64, "seed": 0, "overall": overall,
+         "machine": {"cpu": "Test CPU"}}))
+    run_script("remeasure_cards.py", ["--evaluations", str(evals), "--why", "a change", "--dest", str(dest)], monkeypatch)
+    assert capsys.readouterr().out.strip() == "re-measured: flat 75.0 %"
+    card = (dest / "flat.md").read_text()
+    assert "**75.0 %**" in next(x for x in card.splitlines() if x.startswith(SUCCESS_PREFIX)) and "*Before a change*" in card
+    (evals / "rough").mkdir()
+    (evals / "rough" / "summary.json").write_text("{}")
+    with pytest.raises(SystemExit, match="no shipped policy 'rough'"):
+        run_script("remeasure_cards.py", ["--evaluations", str(evals), "--why", "x", "--dest", str(dest)], monkeypatch)
 
 
+def test_actor_to_run_makes_a_teacher_run_of_a_shipped_teacher(tmp_path, monkeypatch):
+    import torch
+
+    from selfright.policies.actor import actor_from_checkpoint, load_actor_file
+    from selfright.policies.registry import shipped_path
+    from selfright.policies.run_files import latest_checkpoint
+    from selfright.train.config import PolicyConfig
+    from selfright.train.runner import teacher_policy_config
+    from selfright.train.ship import card_record
+
+    out = tmp_path / "rough_teacher"
+    run_script("actor_to_run.py", ["--policy", "rough-teacher", "--out", str(out)], monkeypatch)
+    ckpt = latest_checkpoint(out)
+    cfg, meta = teacher_policy_config(ckpt, PolicyConfig())
+    assert meta["role"] == "teacher" and meta["context"] == "rough" and cfg.hidden_dims == (256, 128, 64)
+    steps = card_record(shipped_path("rough-teacher").with_suffix(".md").read_text())["env_steps"]
+    assert steps > 0 and meta["env_steps"] == steps
+    back = actor_from_checkpoint(torch.load(ckpt, weights_only=True), meta["policy"])
+    shipped = load_actor_file(shipped_path("rough-teacher"))
+    assert all(torch.equal(a, b) for a, b in zip(back.state_dict().values(), shipped.state_dict().values()))
+    with pytest.raises(SystemExit):  # a student cannot be a distillation teacher
+        run_script("actor_to_run.py", ["--policy", "rough", "--out", str(tmp_path / "student")], monkeypatch)
 
 
+def test_device_train_passes_flags_selfright_train_takes():
+    """``device_train.sh`` builds one ``selfright train`` command; every flag it passes parses."""
+    import re
+
+    import tyro
+
+    from selfright.train.commands import TrainArgs
+
+    text = (SCRIPTS / "device_train.sh").read_text()
+    call = text[text.index("python3 -m selfright.cli train"):].split(">>")[0]
+    flags = re.findall(r"(--[a-z-]+) \"\$\{?(\w+)", call)
+    assert {f for f, _ in flags} >= {"--role", "--context", "--out", "--envs", "--iterations", "--physics-threads", "--device"}
+    args = {"--role": "student", "--context": "rough", "--out": "runs/x", "--envs": "8", "--iterations": "2",
+            "--physics-threads": "1", "--torch-threads": "1", "--device": "cpu"}
+    tyro.cli(TrainArgs, args=[t for f, _ in flags for t in (f, args[f])] + ["--teacher", "runs/t", "--resume"])
 
 
+# --- scripts/train_policies.sh -------------------------------------------------------------
+
+SHIPPED = {
+    "flat-teacher": ("flat_teacher_best", 3445),
+    "flat": ("flat_student_stance", 394),
+    "rough-teacher": ("rough_dc_teacher", 15832),
+    "rough": ("gpu_rough_h25w", 721),
+    "incline-teacher": ("incline_dc_teacher_e512", 395),
+    "incline": ("incline_h25_sel31_479_stance03", 339),
+}
+"""Each shipped learned policy: its run in ``runs/`` (committed with its ``train_meta.json``) and
+the iteration shipped."""
+
+BOOKKEEPING = {"train_config.checkpoint_every_s", "train_config.keep_checkpoints", "train_config.validation.episodes",
+               "train_config.validation.seed", "train_config.validation.grid"}
+"""Recorded settings that do not change what a run learns (checkpoints and their validation)."""
+
+ADDED_AS_BEFORE = {
+    "train_config.episode.terminate_low_stance_s": 0.0,
+    "train_config.episode.low_stance_leaky": False,
+    "train_config.episode.restart_stuck": 0.0,
+    "train_config.episode.restart_tilted_only": False,
+    "train_config.episode.curriculum": False,
+    "train_config.episode.incline_curriculum_deg": (5.0, 10.0, 15.0, 20.0),  # these two act only with the curriculum
+    "train_config.episode.curriculum_window_s": 1.0,
+    "train_config.episode.off_tile_is_timeout": False,
+    "train_config.episode.prepare_starts": False,
+    "train_config.recenter_on_init": False,
+    "train_config.distillation.stance_weight": 1.0,
+    "benchmark_config.robot.motor": "ideal",
+    "benchmark_config.robot.motor_speed_rad_s": None,
+    "benchmark_config.robot.joint_stop_timeconst_s": 0.02,
+    "benchmark_config.eval.sensor_noise": 0.0,
+}
+"""Settings added after a run's meta was written, with the value the code ran with before them."""
+
+NOT_SETTABLE = {
+    "flat_teacher_best": {
+        "train_config.episode.off_tile_is_timeout",  # leaving the tile was terminal; no episode left the plane's tile
+        "train_config.episode.prepare_starts",  # starts settled one by one: same distribution, another stream
+        "train_config.recenter_on_init",  # acts only with --init-from, which this run has not
+    },
+}
+"""Where a recipe command cannot reproduce its run's recorded configuration: settings that are no
+longer options (the recipe's header says so)."""
 
 
+def recipe(stage: str, root: Path, env: dict[str, str] | None = None) -> list[str]:
+    """What ``train_policies.sh STAGE`` runs, one command a line (its ``SELFRIGHT_DRY_RUN``)."""
+    done = subprocess.run(["bash", str(SCRIPTS / "train_policies.sh"), stage], capture_output=True, text=True, check=True,
+                          env={**os.environ, "SELFRIGHT_DRY_RUN": "1", "ROOT": str(root), **(env or {})})
+    return done.stdout.splitlines()
 
 
+def train_commands(lines: list[str]) -> list[list[str]]:
+    """The arguments after ``selfright train`` of each training command."""
+    return [shlex.split(line)[2:] for line in lines if line.startswith("selfright train ")]
+
+
+def parse_train(args: list[str]):
+    import tyro
+
+    from selfright.train.commands import TrainArgs
+
+    return tyro.cli(TrainArgs, args=args)
+
+
+def flat_dict(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}}`` → ``{"a.b": 1}``, lists as tuples."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(flat_dict(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = tuple(v) if isinstance(v, list) else v
+    return out
+
+
+def resolved(args) -> dict[str, Any]:
+    """The train and benchmark configurations ``selfright train`` builds from ``args``, keyed as
+    a run meta records them, flattened."""
+    from selfright.config import to_dict
+    from selfright.train.commands import bench_config
+
+    return {**flat_dict(to_dict(args.train), "train_config."), **flat_dict(to_dict(bench_config(args)), "benchmark_config.")}
+
+
+def runs_of(commands: list[list[str]], root: Path) -> dict[str, list]:
+    """Each run folder's parsed commands, in order, by the run's name under ``root``."""
+    out: dict[str, list] = {}
+    for args in commands:
+        a = parse_train(args)
+        assert a.out.parent == root, a.out
+        out.setdefault(a.out.name, []).append(a)
+    return out
+
+
+def test_every_recipe_command_parses_as_selfright_train(tmp_path):
+    root = tmp_path / "retrain"
+    lines = recipe("all", root)
+    commands = train_commands(lines)
+    assert len(commands) == 13  # 12 runs, the flat teacher's in two parts
+    runs = runs_of(commands, root)
+    assert len(runs) == 12
+    for stage in ("flat-teacher", "flat", "rough-teacher", "rough", "incline-teacher", "incline"):
+        assert set(recipe(stage, root)) <= set(lines), stage
+    failed = subprocess.run(["bash", str(SCRIPTS / "train_policies.sh"), "ship"], capture_output=True, text=True)
+    assert failed.returncode == 2 and "usage:" in failed.stderr
+
+
+def test_the_recipe_trains_each_checkpoint_a_later_run_reads_and_ships_the_six(tmp_path):
+    """Every checkpoint a run starts from (``--init-from``) or is taught by (``--teacher``,
+    ``--train.distillation.fallback-teacher``) is the last one an earlier run of the recipe
+    writes; the six shipped checkpoints are the last of their runs, evaluated and shipped."""
+    root = tmp_path / "retrain"
+    lines = recipe("all", root)
+    written: dict[Path, int] = {}
+    for args in train_commands(lines):
+        a = parse_train(args)
+        for src in (a.init_from, a.teacher, a.train.distillation.fallback_teacher):
+            if src is None or Path(src).parent.name.endswith("_std05"):  # made from the flat teacher's checkpoint
+                continue
+            assert written.get(Path(src).parent) == int(Path(src).stem.removeprefix("model_")), (a.out, src)
+        written[a.out] = a.iterations - 1
+    shipped = [shlex.split(line) for line in lines if line.startswith("selfright ship ")]
+    assert {(s[s.index("--name") + 1], s[s.index("--run") + 1]) for s in shipped} == {
+        (name, str(root / run / f"model_{it}.pt")) for name, (run, it) in SHIPPED.items()}
+    assert all(written[root / run] == it for run, it in SHIPPED.values())
+    evaluated = [shlex.split(line) for line in lines if line.startswith("selfright evaluate ")]
+    assert len(evaluated) == 6 and all("--episodes" in e and e[e.index("--seed") + 1] == "0" for e in evaluated)
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED))
+def test_the_recipe_resolves_to_the_recorded_configuration_of_each_shipped_run(name, tmp_path):
+    """The recipe's last command of a shipped policy's run builds the training and benchmark
+    configuration its ``train_meta.json`` records (bookkeeping aside; settings added since at
+    the value the code had before them; a student labelled by a student takes that student's
+    network and history), with its role, context, seed, envs and sources."""
+    run, _ = SHIPPED[name]
+    meta = json.loads((REPO / "runs" / run / "train_meta.json").read_text())
+    root = tmp_path / "retrain"
+    runs = runs_of(train_commands(recipe("all", root)), root)
+    first, last = runs[run][0], runs[run][-1]
+    assert (last.role, last.context, last.seed, last.envs) == (meta["role"], meta["context"], meta["seed"], meta["num_envs"])
+
+    def moved(path: str | None) -> str | None:  # a recorded runs/RUN/model_K.pt, retrained under root
+        return None if path is None else str(root / Path(path).relative_to("runs"))
+
+    assert (str(first.init_from) if first.init_from else None) == moved(meta.get("init_from"))
+    assert (str(last.teacher) if last.teacher else None) == moved(meta.get("teacher"))
+
+    now = resolved(last)
+    if last.train.distillation.stance_ramp_s > 0:  # as selfright.train.label_student.student_train_config
+        labeller = resolved(runs[last.teacher.parent.name][-1])
+        for key in ("policy.hidden_dims", "policy.activation", "policy.obs_normalization", "distillation.student_history"):
+            now[f"train_config.{key}"] = labeller[f"train_config.{key}"]
+    recorded = flat_dict({"train_config": meta["train_config"], "benchmark_config": meta["benchmark_config"]})
+    fallback = recorded.get("train_config.distillation.fallback_teacher")
+    if fallback is not None:
+        recorded["train_config.distillation.fallback_teacher"] = moved(fallback)
+    skip = BOOKKEEPING | ({k for k in now if k.startswith("train_config.distillation.")} if meta["role"] == "teacher" else set())
+    differ = {k for k, v in now.items()
+              if k not in skip and recorded.get(k, ADDED_AS_BEFORE.get(k, "not recorded")) != v}
+    assert differ == NOT_SETTABLE.get(run, set()), {k: (recorded.get(k, ADDED_AS_BEFORE.get(k)), now[k]) for k in differ}
+
+
+FAKE_SELFRIGHT = r'''#!/usr/bin/env bash
+# Stands in for `selfright`: logs its arguments; `train` checks that what it reads exists and
+# writes the checkpoint a run with --iterations N ends with (model_<N-1>.pt).
+set -eu
+echo "$*" >> "$LOG"
+[ "$1" = train ] || exit 0
+out= its= resume=0 prev=
+for a in "$@"; do
+  case $prev in
+    --out) out=$a ;;
+    --iterations) its=$a ;;
+    --init-from|--teacher|--train.distillation.fallback-teacher) [ -e "$a" ] || { echo "missing $a" >&2; exit 1; } ;;
+  esac
+  [ "$a" = --resume ] && resume=1
+  prev=$a
+done
+if [ $resume = 1 ]; then ls "$out"/model_*.pt > /dev/null; fi
+mkdir -p "$out"
+touch "$out/model_$((its - 1)).pt" "$out/train_meta.json"
+'''
+
+FAKE_PYTHON = r'''#!/usr/bin/env bash
+# Stands in for `python -c CODE`: writes the file CODE saves with torch.save(c, 'PATH').
+out=${2##*torch.save(c, \'}
+touch "${out%\')}"
+'''
+
+
+def test_the_recipe_resumes_and_skips_what_is_done(tmp_path):
+    """Run for real against a stand-in ``selfright``: a second call trains nothing, and a run
+    cut short goes on from its latest checkpoint (``--resume``, without ``--init-from``)."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for name, text in (("selfright", FAKE_SELFRIGHT), ("python", FAKE_PYTHON)):
+        (bin_dir / name).write_text(text)
+        (bin_dir / name).chmod(0o755)
+    log, root = tmp_path / "calls.log", tmp_path / "retrain"
+    env = {**os.environ, "PATH": f"{bin_dir}:{os.environ['PATH']}", "LOG": str(log), "ROOT": str(root),
+           "EXTRA": "--physics-threads 1"}
+
+    def replay() -> list[str]:
+        before = log.read_text().splitlines() if log.exists() else []
+        subprocess.run(["bash", str(SCRIPTS / "train_policies.sh"), "flat"], env=env, check=True, capture_output=True)
+        return [c for c in log.read_text().splitlines()[len(before):] if c.startswith("train ")]
+
+    calls = replay()
+    assert len(calls) == 5 and all(c.endswith("--physics-threads 1") for c in calls)
+    assert "--iterations 1079 " in calls[0] and "--resume" not in calls[0]
+    assert "--iterations 3446 " in calls[1] and calls[1].count("--resume") == 1
+    assert f"--init-from {root}/flat_teacher_best_std05/model_3445.pt" in calls[2]
+    assert (root / "flat_student_stance" / "model_394.pt").exists()
+    assert replay() == []
+    (root / "flat_student_stance" / "model_394.pt").unlink()
+    (root / "flat_student_stance" / "model_120.pt").touch()  # a run stopped after a timed checkpoint
+    calls = replay()
+    assert len(calls) == 1 and f"--out {root}/flat_student_stance" in calls[0] and calls[0].count("--resume") == 1
 
 
 def test_train_throughput_benchmark_prints_a_scaling_line(monkeypatch, capsys):
@@ -95,324 +412,3 @@ def test_mjx_throughput_benchmark_runs_where_jax_is_installed(monkeypatch, capsy
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
     assert rows[1]["context"] == "flat" and rows[1]["mjx_nonfinite_envs"] == 0
     assert rows[1]["mjx_physics_steps_per_s"] > 0 and rows[1]["mean_abs_dz_m"] < 0.05
-
-
-
-
-
-
-
-
-
-
-
-
-def _student_checkpoint(gen, mean_shift: float) -> dict:
-    import torch
-
-    dims = (42, 16, 12)
-    sd = {"obs_normalizer._mean": torch.randn(1, dims[0], generator=gen) + mean_shift,
-          "obs_normalizer._std": torch.rand(1, dims[0], generator=gen) + 0.5,
-          "obs_normalizer.count": torch.tensor(10), "distribution.std_param": torch.full((12,), 0.1)}
-    sd["obs_normalizer._var"] = sd["obs_normalizer._std"] ** 2
-    for i, (d_in, d_out) in enumerate(zip(dims[:-1], dims[1:])):
-        sd[f"mlp.{2 * i}.weight"] = torch.randn(d_out, d_in, generator=gen) * 0.3
-        sd[f"mlp.{2 * i}.bias"] = torch.randn(d_out, generator=gen) * 0.1
-    return {"student_state_dict": sd, "iter": 0}
-
-
-
-
-
-
-
-
-def tiny_checkpoint(tmp_path: Path) -> Path:
-    """A one-layer PPO teacher checkpoint with a state-independent std of 0.3."""
-    import torch
-
-    ckpt = tmp_path / "run" / "model_0.pt"
-    ckpt.parent.mkdir()
-    g = torch.Generator().manual_seed(0)
-    torch.save({"actor_state_dict": {"mlp.0.weight": 0.1 * torch.randn(12, 79, generator=g), "mlp.0.bias": torch.zeros(12),
-                                     "distribution.std_param": torch.full((12,), 0.3)}, "iter": 0, "infos": {}}, ckpt)
-    return ckpt
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-def test_lineage_lists_every_run_a_policy_descends_from_oldest_first(tmp_path, monkeypatch, capsys):
-    import json
-
-    def meta(name: str, **kw) -> None:
-        (tmp_path / "runs" / name).mkdir(parents=True)
-        m = {"role": "teacher", "context": "incline", "iterations_done": 10, "env_steps": 1000, "wall_clock_s": 360.0,
-             "command_lines": [f"/venv/bin/selfright train --out runs/{name} "], "command_devices": ["cpu"], **kw}
-        (tmp_path / "runs" / name / "train_meta.json").write_text(json.dumps(m))
-
-    meta("base")
-    meta("escape", init_from="runs/base/model_9.pt")
-    meta("student", role="student", teacher="runs/base/model_5.pt",
-         train_config={"distillation": {"fallback_teacher": "runs/escape/model_3.pt"}, "episode": {}})
-    meta("stance", role="student", teacher="runs/student/model_9.pt")
-    run_script("lineage.py", ["--run", "runs/stance", "--root", str(tmp_path)], monkeypatch)
-    out = capsys.readouterr().out
-    heads = [line.split(":")[0] for line in out.splitlines() if line[:1].isdigit() and ". runs/" in line]
-    assert heads == ["1. runs/base", "2. runs/escape", "3. runs/student", "4. runs/stance"]
-    assert "from fallback teacher runs/escape (uses model_3.pt)" in out
-    assert "$ selfright train --out runs/base" in out
-    assert out.rstrip().endswith("4 runs, 4,000 env steps, 0.40 h of training in all "
-                                 "(runs that went on past the checkpoint used count in full)")
-
-
-def test_lineage_of_each_shipped_policy_but_the_renamed_flat_teacher_starts_at_a_committed_run(monkeypatch, capsys):
-    from selfright.policies.registry import CHECKPOINT_DIR
-
-    for card in sorted(CHECKPOINT_DIR.glob("*.md")):
-        if card.stem == "flat-teacher":  # its run folder became runs/flat_teacher_best; the error names it
-            with pytest.raises(SystemExit, match="flat_teacher_best"):
-                run_script("lineage.py", ["--policy", card.stem], monkeypatch)
-            continue
-        run_script("lineage.py", ["--policy", card.stem], monkeypatch)
-        assert " runs, " in capsys.readouterr().out.splitlines()[-1], card.stem
-
-
-
-
-
-
-def test_factor_sweep_sets_walls_friction_and_compliance(tmp_path, monkeypatch, capsys):
-    import json
-
-    for factor, values, recorded in (("wall_gap_ratio", ["0", "2"], [None, 2.0]), ("friction", ["0.5"], [0.5]),
-                                     ("ground_timeconst_s", ["0.05"], [0.05])):
-        out = tmp_path / factor
-        args = ["--policies", "zero", "--grid", "tiny", "--factor", factor, "--values", *values, "--episodes", "1",
-                "--seeds", "0", "--out", str(out)]
-        run_script("factor_sweep.py", args, monkeypatch)
-        header = capsys.readouterr().out.splitlines()[1]
-        label = {"wall_gap_ratio": "walls", "friction": "friction", "ground_timeconst_s": "ground"}[factor]
-        assert header == "| policy | " + " | ".join(f"{label} {v}" for v in values) + " |"
-        for v, want in zip(values, recorded):
-            summary = json.loads((out / "zero" / f"{label}{v}" / "s0" / "summary.json").read_text())
-            assert summary["config"]["eval"][factor] == want
-
-
-FAKE_TRAIN = r'''#!/usr/bin/env bash
-# A stand-in for `selfright train`: logs its arguments, checks that what it reads exists, and
-# writes the checkpoint a run with --iterations N ends with (model_<N-1>.pt).
-set -eu
-echo "$*" >> "$LOG"
-out= its= resume=0 prev=
-for a in "$@"; do
-  case $prev in
-    --out) out=$a ;;
-    --iterations) its=$a ;;
-    --init-from|--teacher) [ -e "$a" ] || { echo "missing $a" >&2; exit 1; } ;;
-  esac
-  [ "$a" = --resume ] && resume=1
-  prev=$a
-done
-if [ $resume = 1 ]; then ls "$out"/model_*.pt > /dev/null; fi
-mkdir -p "$out"
-touch "$out/model_$((its - 1)).pt"
-'''
-
-
-def fake_lineage(tmp_path, monkeypatch, capsys, *args: str):
-    """Four fake runs under ``tmp_path/runs`` (base → escape, base + escape → student →
-    stance) and the ``lineage.py --script`` of the last, written to ``retrain.sh``."""
-    import json
-
-    def meta(name: str, cmds: list[str], starts: list[int], done: int, **kw) -> None:
-        (tmp_path / "runs" / name).mkdir(parents=True)
-        m = {"role": "teacher", "context": "incline", "iterations_done": done, "env_steps": 10, "wall_clock_s": 1.0,
-             "command_lines": [f"/venv/bin/selfright train --out runs/{name} {c}" for c in cmds],
-             "command_start_iterations": starts, **kw}
-        (tmp_path / "runs" / name / "train_meta.json").write_text(json.dumps(m))
-
-    teacher = "--role teacher --context incline --iterations 100000"
-    meta("base", [teacher, teacher + " --resume --train.ppo.desired-kl 0.005"], [0, 4], 12)
-    meta("escape", [teacher + " --init-from runs/base/model_9.pt"], [0], 8, init_from="runs/base/model_9.pt")
-    student = "--role student --context incline --iterations 300 --teacher runs/base/model_5.pt"
-    meta("student", [student + " --train.distillation.fallback-teacher runs/escape/model_3.pt"], [0], 300,
-         role="student", teacher="runs/base/model_5.pt",
-         train_config={"distillation": {"fallback_teacher": "runs/escape/model_3.pt"}, "episode": {}})
-    meta("stance", ["--role student --context incline --iterations 10 --teacher runs/student/model_9.pt"], [0], 10,
-         role="student", teacher="runs/student/model_9.pt")
-    run_script("lineage.py", ["--run", "runs/stance", "--root", str(tmp_path), "--script", *args], monkeypatch)
-    script = tmp_path / "retrain.sh"
-    script.write_text(capsys.readouterr().out)
-    return script
-
-
-def fake_selfright(tmp_path) -> dict[str, str]:
-    """The environment that puts ``FAKE_TRAIN`` first on the PATH as ``selfright``, logging to
-    ``tmp_path/calls.log``."""
-    import os
-
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    (bin_dir / "selfright").write_text(FAKE_TRAIN)
-    (bin_dir / "selfright").chmod(0o755)
-    return {**os.environ, "PATH": f"{bin_dir}:{os.environ['PATH']}", "LOG": str(tmp_path / "calls.log")}
-
-
-def test_lineage_script_retrains_every_run_to_the_checkpoints_its_children_read_and_resumes(tmp_path, monkeypatch, capsys):
-    """``lineage.py --script``: each invocation stops where the next began and where a child
-    reads a checkpoint, the runs land under the prefix with their sources' paths rewritten, a
-    rerun skips what is done, and a step with an earlier checkpoint goes on with --resume (its
-    --init-from dropped)."""
-    import subprocess
-
-    script = fake_lineage(tmp_path, monkeypatch, capsys)
-    steps = [line.split()[1:3] for line in script.read_text().splitlines() if line.startswith("step ")]
-    assert steps == [["runs/retrain/base", "4"], ["runs/retrain/base", "6"], ["runs/retrain/base", "10"],
-                     ["runs/retrain/escape", "4"], ["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
-    assert "train_config: " in script.read_text()  # the metas record no configuration: all of today's is new
-
-    log = tmp_path / "calls.log"
-    env = {**fake_selfright(tmp_path), "EXTRA": "--physics-threads 2"}
-
-    def replay() -> list[str]:
-        before = log.read_text().splitlines() if log.exists() else []
-        subprocess.run(["bash", str(script)], cwd=tmp_path, env=env, check=True, capture_output=True)
-        return log.read_text().splitlines()[len(before):]
-
-    calls = replay()
-    assert len(calls) == 6
-    assert "--out runs/retrain/base" in calls[0] and "--iterations 4 " in calls[0] and "--resume" not in calls[0]
-    assert "desired-kl 0.005" in calls[1] and calls[1].count("--resume") == 1 and "--iterations 6 " in calls[1]
-    assert "--iterations 10 " in calls[2]
-    assert "--init-from runs/retrain/base/model_9.pt" in calls[3]
-    assert "--teacher runs/retrain/base/model_5.pt" in calls[4] and "fallback-teacher runs/retrain/escape/model_3.pt" in calls[4]
-    assert all(c.endswith("--physics-threads 2") and "--train.keep-checkpoints 0" in c for c in calls)
-    assert all((tmp_path / "runs/retrain" / r / f"model_{k}.pt").exists()
-               for r, k in [("base", 5), ("base", 9), ("escape", 3), ("student", 9), ("stance", 9)])
-
-    assert replay() == []  # everything is there
-    (tmp_path / "runs/retrain/escape/model_3.pt").unlink()
-    (tmp_path / "runs/retrain/escape/model_1.pt").touch()  # a run killed after a timed checkpoint
-    calls = replay()
-    assert len(calls) == 1 and "--out runs/retrain/escape" in calls[0]
-    assert "--init-from" not in calls[0] and calls[0].count("--resume") == 1
-
-
-def test_lineage_script_from_a_later_step_copies_the_earlier_runs_checkpoints_in(tmp_path, monkeypatch, capsys):
-    """``--from-step 3``: the first two runs are not retrained; the checkpoints the later runs
-    read from them are copied from the committed runs (with their metas), and the script stops
-    with a clear message where one is missing."""
-    import subprocess
-
-    script = fake_lineage(tmp_path, monkeypatch, capsys, "--from-step", "3")
-    text = script.read_text()
-    steps = [line.split()[1:3] for line in text.splitlines() if line.startswith("step ")]
-    assert steps == [["runs/retrain/student", "10"], ["runs/retrain/stance", "10"]]
-    assert "# runs/escape/model_3.pt is not here" in text  # said when the script is written, too
-    assert [line.split()[1:] for line in text.splitlines() if line.startswith("reuse ")] == [
-        ["runs/base/model_5.pt", "runs/retrain/base"], ["runs/base/model_9.pt", "runs/retrain/base"],
-        ["runs/escape/model_3.pt", "runs/retrain/escape"]]
-    env = fake_selfright(tmp_path)
-    failed = subprocess.run(["bash", str(script)], cwd=tmp_path, env=env, capture_output=True, text=True)
-    assert failed.returncode != 0 and "runs/base/model_5.pt is not here" in failed.stderr
-    for ckpt in ["base/model_5.pt", "base/model_9.pt", "escape/model_3.pt"]:
-        (tmp_path / "runs" / ckpt).write_text(ckpt)
-    subprocess.run(["bash", str(script)], cwd=tmp_path, env=env, check=True, capture_output=True)
-    calls = (tmp_path / "calls.log").read_text().splitlines()
-    assert len(calls) == 2 and "--teacher runs/retrain/base/model_5.pt" in calls[0]
-    assert (tmp_path / "runs/retrain/escape/model_3.pt").read_text() == "escape/model_3.pt"
-    assert (tmp_path / "runs/retrain/base/train_meta.json").exists()
-    with pytest.raises(SystemExit, match="runs 1 to 4"):
-        fake_lineage(tmp_path / "again", monkeypatch, capsys, "--from-step", "5")
-
-
-def test_lineage_script_of_the_shipped_incline_reads_its_own_checkpoints_and_says_what_changed_since(monkeypatch, capsys):
-    """The replay of ``incline`` ends at the shipped iteration, and its first run, trained
-    before the hard joint stops, is replayed with the softer stops it had."""
-    run_script("lineage.py", ["--policy", "incline", "--script"], monkeypatch)
-    out = capsys.readouterr().out
-    steps = [line.split()[1:3] for line in out.splitlines() if line.startswith("step ")]
-    assert steps[-1] == ["runs/retrain/incline_h25_sel31_479_stance03", "340"]  # iteration 339, the shipped one
-    assert "--teacher runs/retrain/incline_dc_teacher_e512/model_395.pt" in out
-    first = next(line for line in out.splitlines() if line.startswith("step runs/retrain/incline_scratch_narrow "))
-    assert first.endswith("--joint-stop-timeconst-s 0.02")  # trained before the hard stops, and replayed so
-    assert "robot.joint_stop_timeconst_s" not in out
-
-
-def test_lineage_drift_check_resolves_a_command_as_selfright_train_does():
-    """The configuration ``lineage.py`` compares with a run's record is the one ``selfright
-    train`` builds from the same command (``train.commands.bench_config``), e.g. the stiffness
-    of the joint stops, which runs before 2026-12-04 trained softer."""
-    lineage = runpy.run_path(str(Path(__file__).resolve().parents[2] / "scripts" / "lineage.py"), run_name="lineage")
-    cmd = "/venv/bin/selfright train --out runs/x --motor dcmotor --joint-stop-timeconst-s 0.02 --train.ppo.desired-kl 0.005"
-    got = lineage["resolved_configs"](cmd)
-    assert got["benchmark_config"]["robot.joint_stop_timeconst_s"] == 0.02
-    assert got["benchmark_config"]["robot.motor"] == "dcmotor"
-    assert got["train_config"]["ppo.desired_kl"] == 0.005
-    meta = {"command_lines": [cmd], "benchmark_config": {"robot": {"motor": "ideal"}}, "train_config": {}}
-    assert 'benchmark_config.robot.motor: recorded "ideal", now "dcmotor"' in lineage["config_drift"](meta, [])
-    assert lineage["restored_settings"](meta) == [("--joint-stop-timeconst-s", "0.02")]
-    meta["benchmark_config"]["robot"]["joint_stop_timeconst_s"] = 0.01
-    assert lineage["restored_settings"](meta) == []
-
-
-def test_lineage_drift_check_passes_over_settings_added_with_the_value_older_runs_had():
-    """A run recorded before ``robot.motor`` existed ran the ideal servos: resolving to them
-    today is not drift, resolving to the DC motors is."""
-    lineage = runpy.run_path(str(Path(__file__).resolve().parents[2] / "scripts" / "lineage.py"), run_name="lineage")
-    meta = {"command_lines": ["selfright train --out runs/x"], "benchmark_config": {"robot": {}}, "train_config": {}}
-    drift = lineage["config_drift"](meta, [])
-    assert not any("robot.motor" in line for line in drift), drift
-    meta["command_lines"] = ["selfright train --out runs/x --motor dcmotor"]
-    drift = lineage["config_drift"](meta, [])
-    assert 'benchmark_config.robot.motor: not recorded (before it existed), now "dcmotor"' in drift
-    assert not any("motor_speed_rad_s" in line for line in drift), drift
-
-
-
-
-
-
-def test_select_checkpoints_expands_runs_scores_each_once_and_ranks(tmp_path, monkeypatch, capsys):
-    import shutil
-
-    run = tmp_path / "runs" / "cand"
-    run.mkdir(parents=True)
-    src = Path("runs/incline_h25_sel31_479_stance03")  # committed: the shipped incline's run
-    shutil.copy(src / "train_meta.json", run / "train_meta.json")
-    for k in (0, 1, 2, 3):
-        shutil.copy(src / "model_339.pt", run / f"model_{k}.pt")
-    shutil.copy(src / "model_339.pt", run / "model_best.pt")
-    mod = runpy.run_path(str(SCRIPTS / "select_checkpoints.py"))
-    assert [p.name for p in mod["expand"]((run,), every=2)] == ["model_1.pt", "model_3.pt"]  # every 2nd and the last
-    assert [p.name for p in mod["expand"]((run, run / "model_3.pt"), min_iteration=3)] == ["model_3.pt"]
-    with pytest.raises(ValueError, match="numbered"):
-        mod["expand"]((run / "model_best.pt",))
-    out = tmp_path / "sel"
-    args = [str(run / "model_2.pt"), str(run / "model_3.pt"), "--grid", "incline", "--seeds", "4",
-            "--episodes", "1", "--threads", "1", "--out", str(out)]
-    run_script("select_checkpoints.py", args, monkeypatch)
-    first = capsys.readouterr().out
-    assert "ranked on incline, seeds 4" in first and first.count("/    1  ") == 2
-    summary = out / "cand_3" / "s4" / "summary.json"
-    stamp = summary.stat().st_mtime_ns
-    run_script("select_checkpoints.py", args, monkeypatch)  # a second call reads the results it left
-    assert summary.stat().st_mtime_ns == stamp and capsys.readouterr().out == first

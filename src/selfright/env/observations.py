@@ -103,12 +103,6 @@ def privileged_columns(num_joints: int) -> dict[str, slice]:
     return out
 
 
-def teacher_height_column(num_joints: int) -> int:
-    """Column of the trunk height above the ground in the teacher observation (student,
-    slope angle, uphill direction, friction, trunk linear velocity, then the height)."""
-    return privileged_columns(num_joints)["height"].start
-
-
 def privileged_obs(
     rs: RobotState, slope_pct: torch.Tensor, friction: torch.Tensor, scan_z: torch.Tensor, factors: torch.Tensor
 ) -> torch.Tensor:

@@ -185,7 +185,7 @@ def _summary(identity, cells, worlds, rough, rows) -> dict[str, Any]:
             "slope_deg": c.slope_deg, "roughness_extent_m": c.roughness_extent_m, "roughness_R": rough[k],
             "friction": worlds[k].context.friction, **stats,
         })
-    # The machine: rows are byte-identical on one machine, not across CPU generations (README, *Seeds*).
+    # The machine: rows are byte-identical on one machine, not across CPU generations (docs/benchmark.md, *Seeds and determinism*).
     return {**identity, "machine": machine(), "cells": out_cells, "overall": summarize(rows)}
 
 

@@ -6,14 +6,10 @@ A trained actor travels in three forms, all built here:
   ``student_state_dict`` from distillation), converted by ``actor_from_checkpoint``;
 - a policy file (``.pt``): the actor's ``state_dict`` plus metadata, nothing else, so it
   loads with ``torch.load(..., weights_only=True)`` (``save_actor_file`` / ``load_actor_file``);
-- an ONNX graph ``obs (batch, D) -> actions (batch, J)`` (``export_onnx``); a recurrent
-  actor's graph also maps ``hidden (batch, H)`` to ``hidden_out (batch, H)``.
+- an ONNX graph ``obs (batch, D) -> actions (batch, J)`` (``export_onnx``).
 
 The MLP's layer names match rsl_rl's ``MLPModel.mlp`` (``mlp.0.weight`` ...), so weights
-copy over unchanged; a recurrent student (rsl_rl ``RNNModel`` with a GRU) has its GRU
-between the normaliser and the MLP; a student with a velocity estimator
-(``selfright.train.velocity_estimator``) has an ``estimator`` MLP whose output the MLP reads
-beside the normalised input.
+copy over unchanged.
 """
 
 from __future__ import annotations
@@ -37,8 +33,6 @@ FILE_FORMAT = "selfright.actor"
 FILE_VERSION = 1
 RSL_RL_NORMALIZER_EPS = 1e-2
 """``EmpiricalNormalization``'s default eps: rsl_rl normalises as (x − mean) / (std + eps)."""
-ESTIMATE_DIM = 3
-"""Output size of a student's velocity estimator: trunk linear velocity, body frame (m/s)."""
 GROUP_BY_DIM = {42: "student", 79: "teacher"}
 """Observation group by input size (A1: 9 + 3·12 = 42; + 37 privileged = 79)."""
 
@@ -85,12 +79,6 @@ class ActorMeta:
     obs_history: int = 1
     """Frames of ``obs_group`` in the input, oldest first (``obs_dim`` = frames × group size);
     the policy keeps them per env slot (``selfright.policies.history``)."""
-    gru_dim: int = 0
-    """Hidden size of the GRU between the normaliser and the MLP; 0 = feed-forward. The
-    policy keeps the hidden state per env slot (``selfright.policies.recurrent``)."""
-    estimator_dims: tuple[int, ...] = ()
-    """Hidden widths of the velocity estimator between the normaliser and the MLP (its
-    ``ESTIMATE_DIM`` outputs join the MLP's input); () = none."""
     motor: str = ""
     """Motor model it was trained with (``RobotConfig.motor``: ``ideal`` or ``dcmotor``); empty
     if not recorded (files written before it was, all trained with ``ideal``)."""
@@ -101,57 +89,50 @@ class ActorMeta:
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["hidden_dims"] = list(self.hidden_dims)
-        d["estimator_dims"] = list(self.estimator_dims)
         return d
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> ActorMeta:
+        """The meta of a policy file or checkpoint ``infos``; unknown keys are ignored, and
+        ``ValueError`` if it describes an architecture other than normaliser + MLP."""
+        refuse_other_architectures(d)
         d = dict(d)
         d["hidden_dims"] = tuple(int(h) for h in d["hidden_dims"])
-        d["estimator_dims"] = tuple(int(h) for h in d.get("estimator_dims", ()))
         known = ActorMeta.__dataclass_fields__
         return ActorMeta(**{k: v for k, v in d.items() if k in known})
 
 
+NO_OP_ARCHITECTURE = {"gru_dim": 0, "estimator_dims": [], "state_dependent_std": False}
+"""Metadata keys that older policy files and checkpoints record, at the values that describe
+this module's actor (no recurrent layer, no velocity estimator, a state-independent std)."""
+
+
+def refuse_other_architectures(d: dict[str, Any]) -> None:
+    """``ValueError`` if metadata ``d`` records a ``NO_OP_ARCHITECTURE`` key at another value."""
+    for key, no_op in NO_OP_ARCHITECTURE.items():
+        value = d.get(key, no_op)
+        if (list(value) if isinstance(value, (list, tuple)) else value) != no_op:
+            raise ValueError(f"actor has {key}={value!r}: only feed-forward actors (normaliser + MLP, "
+                             "state-independent std) are supported")
+
+
 class ActorMLP(nn.Module):
-    """Deterministic actor: ``mlp((obs − mean) / (std + eps))``, obs (k, D) -> actions (k, J).
-
-    With ``meta.gru_dim`` H > 0 a GRU sits before the MLP and the actor is a step function
-    ``(obs (k, D), hidden (k, H)) -> (actions (k, J), hidden (k, H))``; the hidden state of an
-    episode's first step is zeros.
-
-    With ``meta.estimator_dims`` the MLP reads ``[x, estimator(x)]``, x the normalised input
-    (feed-forward actors only)."""
+    """Deterministic actor: ``mlp((obs − mean) / (std + eps))``, obs (k, D) -> actions (k, J)."""
 
     def __init__(self, meta: ActorMeta):
         super().__init__()
-        if meta.estimator_dims and meta.gru_dim > 0:
-            raise ValueError("an actor has a GRU or a velocity estimator, not both")
         self.meta = meta
         self.eps = float(meta.normalizer_eps)
         self.obs_normalization = bool(meta.obs_normalization)
         self.register_buffer("obs_mean", torch.zeros(meta.obs_dim))
         self.register_buffer("obs_std", torch.ones(meta.obs_dim))
-        self.gru = nn.GRU(meta.obs_dim, meta.gru_dim) if meta.gru_dim > 0 else None
-        self.estimator = mlp_layers(meta.obs_dim, meta.estimator_dims, ESTIMATE_DIM, meta.activation) if meta.estimator_dims else None
-        width = meta.gru_dim or (meta.obs_dim + (ESTIMATE_DIM if meta.estimator_dims else 0))
-        self.mlp = mlp_layers(width, meta.hidden_dims, meta.action_dim, meta.activation)
+        self.mlp = mlp_layers(meta.obs_dim, meta.hidden_dims, meta.action_dim, meta.activation)
 
-    @property
-    def recurrent(self) -> bool:
-        return self.gru is not None
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        """Actions (k, J) for inputs ``obs`` (k, D)."""
+        return self.mlp(self._normalize(obs))
 
-    def forward(self, obs: torch.Tensor, hidden: torch.Tensor | None = None) -> Any:
-        """Actions (k, J); for a recurrent actor ``(actions, hidden)`` from ``hidden`` (k, H)."""
-        x = self._normalize(obs)
-        if self.estimator is not None:
-            x = torch.cat([x, self.estimator(x)], dim=-1)
-        if self.gru is None:
-            return self.mlp(x)
-        out, h = self.gru(x.unsqueeze(0), self._required(hidden).unsqueeze(0))
-        return self.mlp(out.squeeze(0)), h.squeeze(0)
-
-    def forward_rows(self, obs: torch.Tensor, hidden: torch.Tensor | None = None) -> Any:
+    def forward_rows(self, obs: torch.Tensor) -> torch.Tensor:
         """``forward``, computed so that each row's result is bitwise independent of the other
         rows and of their number. In a plain batched pass two things depend on the batch: a
         (k, D) @ (D, H) product sums in a k-dependent order (BLAS blocks differently), and an
@@ -161,40 +142,7 @@ class ActorMLP(nn.Module):
         would depend on the episodes batched with it. Here every row is its own (1, D) @ (D, H)
         product (``bmm`` over k) and activations run on rows padded to whole vectors; results
         agree with ``forward`` to float32 rounding."""
-        x = self._normalize(obs)
-        h = None
-        if self.gru is not None:
-            x = h = self._gru_rows(x, self._required(hidden))
-        if self.estimator is not None:
-            x = torch.cat([x, _sequential_rows(self.estimator, x)], dim=-1)
-        x = _sequential_rows(self.mlp, x)
-        return x if h is None else (x, h)
-
-    def estimate_rows(self, obs: torch.Tensor) -> torch.Tensor:
-        """(k, ESTIMATE_DIM) the velocity estimator's output for inputs ``obs`` (k, D), row by row
-        as ``forward_rows``; ``ValueError`` for an actor without an estimator."""
-        if self.estimator is None:
-            raise ValueError("this actor has no velocity estimator (train with --train.distillation.velocity-estimator)")
-        return _sequential_rows(self.estimator, self._normalize(obs))
-
-    @staticmethod
-    def _required(hidden: torch.Tensor | None) -> torch.Tensor:
-        if hidden is None:
-            raise ValueError("a recurrent actor needs its hidden state (zeros at an episode's start)")
-        return hidden
-
-    def _gru_rows(self, x: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
-        """One GRU step, row by row (torch's gate order r, z, n):
-        r = σ(W_ir x + b_ir + W_hr h + b_hr), z = σ(W_iz x + … ), n = tanh(W_in x + b_in + r ⊙ (W_hn h + b_hn)),
-        h' = (1 − z) ⊙ n + z ⊙ h."""
-        g = self.gru
-        gi = _linear_rows(x.unsqueeze(1), g.weight_ih_l0, g.bias_ih_l0).squeeze(1)
-        gh = _linear_rows(h.unsqueeze(1), g.weight_hh_l0, g.bias_hh_l0).squeeze(1)
-        (ir, iz, i_n), (hr, hz, hn) = gi.chunk(3, dim=1), gh.chunk(3, dim=1)
-        r = _padded_rows(torch.sigmoid, ir + hr)
-        z = _padded_rows(torch.sigmoid, iz + hz)
-        n = _padded_rows(torch.tanh, i_n + r * hn)
-        return (1.0 - z) * n + z * h
+        return _sequential_rows(self.mlp, self._normalize(obs))
 
     def _normalize(self, obs: torch.Tensor) -> torch.Tensor:
         if self.obs_normalization:
@@ -248,9 +196,9 @@ def _padded_rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) ->
 
 
 # --------------------------------------------------------------- checkpoints
-DEPLOYED_ACTOR_KEYS = ("student_ema_state_dict", "student_state_dict", "actor_state_dict")
+DEPLOYED_ACTOR_KEYS = ("student_state_dict", "actor_state_dict")
 """Where an rsl_rl checkpoint keeps the actor that deploys, first found first: a distilled
-student's weight average (``selfright.train.ema``), else its student, else the PPO actor."""
+student, else the PPO actor."""
 
 
 def deployed_actor_key(ckpt: dict[str, Any]) -> str:
@@ -262,40 +210,31 @@ def deployed_actor_key(ckpt: dict[str, Any]) -> str:
 
 
 def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = None) -> ActorMLP:
-    """The deployable actor of an rsl_rl checkpoint (the student if distilled, its weight
-    average when the run kept one (``--train.distillation.ema-decay``), else the PPO actor).
+    """The deployable actor of an rsl_rl checkpoint (the student if distilled, else the PPO
+    actor).
 
     Architecture is read off the weights; ``hint`` (e.g. the run's ``train_meta.json``
     ``policy`` entry, or the checkpoint's ``infos``) supplies the activation, role and context.
-    Raises ``ValueError`` if the dict holds no actor.
+    Raises ``ValueError`` if the dict holds no actor or one that is not normaliser + MLP with a
+    state-independent std.
     """
     hint = dict(hint or {})
+    refuse_other_architectures(hint)
     key = deployed_actor_key(ckpt)
     sd, role = ckpt[key], "teacher" if key == "actor_state_dict" else "student"
     layers = _linear_layers(sd, "mlp")
     if not layers:
         raise ValueError("checkpoint actor has no MLP weights (mlp.<i>.weight)")
+    # rsl_rl keeps a state-independent std in ``distribution.*``; a PPO actor without one has a
+    # state-dependent std (its last layer outputs [mean; log std]).
+    other = sorted({k.split(".")[0] for k in sd if not k.startswith(("mlp.", "obs_normalizer.", "distribution."))})
+    if not other and role == "teacher" and not any(k.startswith("distribution.") for k in sd):
+        other = ["a state-dependent std"]
+    if other:
+        raise ValueError(f"checkpoint actor has {', '.join(other)}: only feed-forward actors "
+                         "(normaliser + MLP, state-independent std) are supported")
     shapes = [tuple(sd[k].shape) for _, k in layers]
-    # A PPO actor with a state-dependent std (rsl_rl HeteroscedasticGaussianDistribution) has
-    # no distribution parameters; its last layer outputs [mean; log std], and only the mean
-    # is deployed.
-    two_heads = bool(hint.get("state_dependent_std", role == "teacher" and not any(k.startswith("distribution.") for k in sd)))
-    if two_heads:
-        if shapes[-1][0] % 2:
-            raise ValueError(f"actor with a state-dependent std needs an even output size, got {shapes[-1][0]}")
-        shapes[-1] = (shapes[-1][0] // 2, shapes[-1][1])
-    gru_dim, obs_dim = 0, shapes[0][1]
-    estimator = _linear_layers(sd, "estimator")
-    estimator_dims = tuple(int(sd[k].shape[0]) for _, k in estimator[:-1])
-    if estimator:  # the MLP reads [input, estimate]
-        obs_dim = int(sd[estimator[0][1]].shape[1])
-        if tuple(sd[estimator[-1][1]].shape)[0] != ESTIMATE_DIM or shapes[0][1] != obs_dim + ESTIMATE_DIM:
-            raise ValueError(f"velocity estimator of this actor does not output {ESTIMATE_DIM} values into its MLP")
-    if "rnn.rnn.weight_hh_l0" in sd:  # rsl_rl RNNModel: RNN(obs) -> MLP
-        w_ih, w_hh = sd["rnn.rnn.weight_ih_l0"], sd["rnn.rnn.weight_hh_l0"]
-        gru_dim, obs_dim = int(w_hh.shape[1]), int(w_ih.shape[1])
-        if w_hh.shape[0] != 3 * gru_dim or "rnn.rnn.weight_hh_l1" in sd:
-            raise ValueError("only one-layer GRU students are supported (this recurrent actor is an LSTM or deeper)")
+    obs_dim = shapes[0][1]
     history = int(hint.get("obs_history", 1))
     if obs_dim % history:
         raise ValueError(f"actor input size {obs_dim} is not a multiple of its {history} observation frames")
@@ -315,19 +254,11 @@ def actor_from_checkpoint(ckpt: dict[str, Any], hint: dict[str, Any] | None = No
         action_reference=str(hint.get("action_reference", "")),
         action_scale_rad=float(hint.get("action_scale_rad", 0.0)),
         obs_history=history,
-        gru_dim=gru_dim,
-        estimator_dims=estimator_dims,
         motor=str(hint.get("motor", "")),
         motor_speed_rad_s=float(hint.get("motor_speed_rad_s") or 0.0),
     )
     actor = ActorMLP(meta)
-    state = OrderedDict((k, v) for k, v in sd.items() if k.startswith(("mlp.", "estimator.")))
-    if gru_dim:
-        state.update(("gru." + k.removeprefix("rnn.rnn."), v) for k, v in sd.items() if k.startswith("rnn.rnn."))
-    if two_heads:  # keep the mean head: the first half of the last layer's rows
-        last = layers[-1][1]
-        bias = last.removesuffix("weight") + "bias"
-        state[last], state[bias] = state[last][: meta.action_dim], state[bias][: meta.action_dim]
+    state = OrderedDict((k, v) for k, v in sd.items() if k.startswith("mlp."))
     if normalized:
         state["obs_mean"] = sd["obs_normalizer._mean"].reshape(-1)
         state["obs_std"] = sd["obs_normalizer._std"].reshape(-1)
@@ -346,13 +277,9 @@ def _linear_layers(sd: dict[str, torch.Tensor], prefix: str) -> list[tuple[int, 
 
 def teacher_checkpoint(actor: ActorMLP) -> dict[str, Any]:
     """An rsl_rl PPO-style checkpoint (``actor_state_dict``, ``iter``, ``infos``) holding
-    ``actor``'s weights: the inverse of ``actor_from_checkpoint`` for a feed-forward actor, so
-    that a shipped or exported teacher can be distilled from (``--teacher``). It has no critic
+    ``actor``'s weights: the inverse of ``actor_from_checkpoint``, so that a shipped or exported teacher can be distilled from (``--teacher``). It has no critic
     or optimiser, so it cannot resume PPO; its action std (unused by a frozen teacher) is 1."""
     m = actor.meta
-    if actor.recurrent or actor.estimator is not None:
-        raise ValueError("a recurrent actor or one with a velocity estimator has no PPO checkpoint form "
-                         "(teachers are plain feed-forward)")
     sd: OrderedDict[str, torch.Tensor] = OrderedDict()
     if m.obs_normalization:
         mean, std = actor.obs_mean.detach().clone(), actor.obs_std.detach().clone()
@@ -367,7 +294,6 @@ def teacher_checkpoint(actor: ActorMLP) -> dict[str, Any]:
         "hidden_dims": list(m.hidden_dims),
         "activation": m.activation,
         "obs_normalization": m.obs_normalization,
-        "state_dependent_std": False,
         "role": m.role or "teacher",
         "context": m.context,
         "action_reference": m.action_reference,
@@ -415,8 +341,6 @@ def export_onnx(actor: ActorMLP, path: str | Path) -> None:
     """Write ``actor`` as ONNX: input ``obs`` (batch, D) float32 -> output ``actions`` (batch, J).
     With ``meta.obs_history`` H > 1, ``obs`` is the group's last H frames concatenated, oldest
     first, every frame the first one at an episode's start (the deployer keeps that history).
-    A recurrent actor (``meta.gru_dim`` H > 0) has a second input ``hidden`` (batch, H), zeros
-    at an episode's start, and a second output ``hidden_out`` to feed back at the next step.
 
     The metadata (``ActorMeta``) is stored in the model's ``metadata_props`` (values as JSON),
     and for a student its ``selfright.deploy.DeploymentSpec`` under ``deployment``.
@@ -432,18 +356,13 @@ def export_onnx(actor: ActorMLP, path: str | Path) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             batch = torch.export.Dim("batch")
-            args: tuple[torch.Tensor, ...] = (torch.zeros(1, actor.meta.obs_dim),)
-            names_in, names_out = ["obs"], ["actions"]
-            if actor.recurrent:
-                args += (torch.zeros(1, actor.meta.gru_dim),)
-                names_in, names_out = ["obs", "hidden"], ["actions", "hidden_out"]
             program = torch.onnx.export(
                 actor,
-                args,
+                (torch.zeros(1, actor.meta.obs_dim),),
                 None,
-                input_names=names_in,
-                output_names=names_out,
-                dynamic_shapes=tuple({0: batch} for _ in args),
+                input_names=["obs"],
+                output_names=["actions"],
+                dynamic_shapes=({0: batch},),
                 opset_version=18,
                 dynamo=True,
                 verbose=False,

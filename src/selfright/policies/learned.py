@@ -32,7 +32,6 @@ from selfright.policies.actor import (
 from selfright.policies.base import Policy
 from selfright.policies.history import ObsHistory
 from selfright.terrain import Cell
-from selfright.policies.recurrent import HiddenStates
 
 TORCH_SUFFIXES = (".pt", ".pth", ".jit", ".ts")
 
@@ -41,21 +40,16 @@ class _FilePolicy(Policy):
     """A learned policy reading one observation group, optionally its last ``history`` frames
     stacked (oldest first; ``selfright.policies.history``)."""
 
-    def __init__(
-        self, group: str, name: str, action_mapping: tuple[str, float] | None, history: int, gru_dim: int = 0,
-    ):
+    def __init__(self, group: str, name: str, action_mapping: tuple[str, float] | None, history: int):
         self.group = group
         self.name = name
         self.action_mapping = action_mapping
         self.history = history
         self._frames = None if history <= 1 else ObsHistory(history, group_dim(group))
-        self._hidden = HiddenStates(gru_dim) if gru_dim > 0 else None
 
     def reset(self, ids: np.ndarray, seeds: np.ndarray | None = None) -> None:
         if self._frames is not None:
             self._frames.reset(ids)
-        if self._hidden is not None:
-            self._hidden.reset(ids)
 
     def _input(self, obs: dict[str, torch.Tensor], ids: np.ndarray) -> torch.Tensor:
         """The network input (k, D): the group's observation, or its stacked history."""
@@ -72,20 +66,16 @@ class TorchPolicy(_FilePolicy):
 
     def __init__(
         self, module: Callable[[torch.Tensor], torch.Tensor], group: str, name: str,
-        action_mapping: tuple[str, float] | None = None, history: int = 1, gru_dim: int = 0,
+        action_mapping: tuple[str, float] | None = None, history: int = 1,
     ):
-        super().__init__(group, name, action_mapping, history, gru_dim)
+        super().__init__(group, name, action_mapping, history)
         self.module = module
 
     @torch.no_grad()
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, cells: Sequence[Cell | None]) -> torch.Tensor:
         x = self._input(obs, ids)
         if isinstance(self.module, ActorMLP):
-            if self._hidden is None:
-                return self.module.forward_rows(x).float()
-            actions, h = self.module.forward_rows(x, self._hidden.get(ids))
-            self._hidden.set(ids, h)
-            return actions.float()
+            return self.module.forward_rows(x).float()
         return _rows(lambda r: self.module(r).float(), x)
 
 
@@ -95,22 +85,17 @@ class OnnxPolicy(_FilePolicy):
     def __init__(
         self, session: Any, group: str, name: str, action_mapping: tuple[str, float] | None = None, history: int = 1,
     ):
-        inputs = session.get_inputs()
-        gru_dim = int(inputs[1].shape[-1]) if len(inputs) > 1 else 0  # recurrent: (obs, hidden)
-        super().__init__(group, name, action_mapping, history, gru_dim)
+        super().__init__(group, name, action_mapping, history)
         self.session = session
-        self.input_names = [i.name for i in inputs]
+        self.input_name = session.get_inputs()[0].name
 
     def act(self, obs: dict[str, torch.Tensor], ids: np.ndarray, cells: Sequence[Cell | None]) -> torch.Tensor:
         """One row per session run, for the batch independence ``TorchPolicy`` explains."""
         x = self._input(obs, ids).detach().cpu().numpy().astype(np.float32)
-        feeds = [x] if self._hidden is None else [x, self._hidden.get(ids).numpy().astype(np.float32)]
         if len(x) == 0:
-            return torch.from_numpy(self.session.run(None, dict(zip(self.input_names, feeds)))[0]).float()
-        outs = [self.session.run(None, dict(zip(self.input_names, (f[i : i + 1] for f in feeds)))) for i in range(len(x))]
-        if self._hidden is not None:
-            self._hidden.set(ids, torch.from_numpy(np.concatenate([o[1] for o in outs])))
-        return torch.from_numpy(np.concatenate([o[0] for o in outs])).float()
+            return torch.from_numpy(self.session.run(None, {self.input_name: x})[0]).float()
+        outs = [self.session.run(None, {self.input_name: x[i : i + 1]})[0] for i in range(len(x))]
+        return torch.from_numpy(np.concatenate(outs)).float()
 
 
 def _rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) -> torch.Tensor:
@@ -148,7 +133,7 @@ def _load_torch(p: Path) -> Policy:
     actor = load_torch_actor(p)
     m = actor.meta
     mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
-    policy = TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history, m.gru_dim)
+    policy = TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history)
     policy.trained_motor = (m.motor, m.motor_speed_rad_s) if m.motor else None
     return policy
 
@@ -211,6 +196,9 @@ def _load_onnx(p: Path) -> Policy:
         session = ort.InferenceSession(str(p), sess_options=opts, providers=["CPUExecutionProvider"])
     except Exception as e:  # noqa: BLE001
         raise ValueError(f"ONNX policy {p} cannot be loaded ({_first_line(e)})") from e
+    if len(session.get_inputs()) != 1:
+        names = [i.name for i in session.get_inputs()]
+        raise ValueError(f"ONNX policy {p} takes inputs {names}; only feed-forward graphs obs -> actions are supported")
     props = session.get_modelmeta().custom_metadata_map
     group = _json_or_none(props.get("obs_group"))
     if group is None:

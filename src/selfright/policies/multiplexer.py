@@ -26,7 +26,7 @@ def sr_context(slope_deg: float, roughness_level: int, switch_deg: float = INCLI
     ``switch_deg`` with roughness level below ``roughness_below`` use π_INCLINE, else cells with
     roughness level ≥ 1 use π_ROUGH, else π_FLAT. The roughness cut was chosen on the members'
     own evaluations on the paper grid with seed 1 (26.9 % against 24.6 % for π_INCLINE at every
-    roughness) and checked on seed 0 (README, *Results*).
+    roughness) and checked on seed 0 (docs/benchmark.md, *π_SR and its hand-over rule*).
     """
     if slope_deg >= switch_deg and roughness_level < roughness_below:
         return "incline"

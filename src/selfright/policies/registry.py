@@ -112,7 +112,7 @@ def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
         return learned.load_policy_file(shipped_path(name))
     if name.removesuffix("-teacher") in CONTEXTS:  # a learned policy by name, not shipped yet
         raise ValueError(
-            f"policy {name!r} is not shipped in this install yet; train one (README, Training) or choose one of: "
+            f"policy {name!r} is not shipped in this install yet; train one (README, *Training in brief*) or choose one of: "
             f"{', '.join(available_policies())}"
         )
     from selfright.policies.user import is_user_policy, load_user_policy

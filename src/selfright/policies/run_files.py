@@ -11,7 +11,6 @@ import re
 from pathlib import Path
 from typing import Any
 
-import torch
 
 META_FILE = "train_meta.json"
 CHECKPOINT_RE = re.compile(r"model_(\d+)\.pt")
@@ -61,23 +60,3 @@ def policy_hint(ckpt: Path, infos: dict[str, Any] | None) -> dict[str, Any]:
     hint.setdefault("source", str(ckpt))
     return hint
 
-
-def with_std_head(actor_sd: dict[str, Any]) -> dict[str, Any]:
-    """An rsl_rl actor state dict with a state-independent std, rewritten for a
-    state-dependent one (``PolicyConfig.state_dependent_std``): the last layer gains as many
-    rows again, with zero weights and the source's log std as bias, so the new actor is the
-    same stochastic policy. A state dict that already has the std head is returned as is."""
-    if "distribution.std_param" in actor_sd:
-        log_std = actor_sd["distribution.std_param"].clamp_min(1e-6).log()
-    elif "distribution.log_std_param" in actor_sd:
-        log_std = actor_sd["distribution.log_std_param"]
-    else:
-        return dict(actor_sd)
-    out = {k: v for k, v in actor_sd.items() if not k.startswith("distribution.")}
-    last = max((int(m.group(1)) for k in out if (m := re.fullmatch(r"mlp\.(\d+)\.weight", k))), default=None)
-    if last is None:
-        raise ValueError("actor state dict has no MLP weights (mlp.<i>.weight)")
-    w, b = out[f"mlp.{last}.weight"], out[f"mlp.{last}.bias"]
-    out[f"mlp.{last}.weight"] = torch.cat([w, torch.zeros_like(w)])
-    out[f"mlp.{last}.bias"] = torch.cat([b, log_std.to(b)])
-    return out

@@ -1,10 +1,9 @@
 """Sensor noise at evaluation: a policy reading its sensors through additive Gaussian noise.
 
 The benchmark's sensors are exact by default. A real A1's IMU and joint encoders are not, and a
-policy trained on exact sensors can depend on them far more than its success suggests (the
-shipped `incline` gets up from 0 % of the incline's falls at ``--sensor-noise 1``, docs/training.md).
+policy trained on exact sensors can depend on them far more than its success suggests.
 ``selfright evaluate --sensor-noise S`` (``EvalConfig.sensor_noise``) wraps every policy in
-``NoisySensors``; training adds the same noise with ``--train.randomization.sensor-noise``.
+``NoisySensors`` (docs/benchmark.md, *Further factors*).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Per-slot buffers of deployed policies: a tensor with one row per env slot that grows to
 the largest slot index seen (evaluation hands out slot ids; training has a fixed number).
-Shared by ``ObsHistory``, ``StallSwitch``, ``TiltSwitch`` and ``TorqueEnvelope``; ``SlotNoise``
+Shared by ``ObsHistory`` and ``TorqueEnvelope``; ``SlotNoise``
 draws per-episode Gaussian noise for ``NoisySensors``."""
 
 from __future__ import annotations

@@ -161,8 +161,6 @@ def export(args: ExportArgs) -> tuple[Path, Path]:
     export_onnx(actor, onnx_path)
     save_actor_file(policy_path, actor)
     frames = f" × {actor.meta.obs_history} frames" if actor.meta.obs_history > 1 else ""
-    frames += f" + GRU {actor.meta.gru_dim} (ONNX inputs obs, hidden; outputs actions, hidden_out)" if actor.meta.gru_dim else ""
-    frames += " + velocity estimator" if actor.meta.estimator_dims else ""
     print(f"exported {actor.meta.obs_group}{frames} actor ({actor.meta.role}, {actor.meta.context or 'context ?'}) "
           f"of {ckpt}: {onnx_path}, {policy_path}")
     if actor.meta.obs_group == "student":

@@ -47,29 +47,30 @@ class EpisodeConfig:
     for every slot without one, instead of settling the 1–3 episodes that end at a control step
     on their own (2 s of physics on 1–3 threads while the rest idle). Same fall protocol,
     same distribution of starts; the random stream differs from ``False``. A slot's start
-    waits at most one episode: a curriculum level change since it was drawn discards it;
-    replayed falls join at the next batch."""
+    waits at most one episode: a curriculum level change since it was drawn discards it."""
     terminate_low_stance_s: float = 0.0
     """End the episode as a terminal state (value 0) once the robot has stood upright on four
     feet with its trunk under the goal bar for this long without a break (s); 0 = off. The
     reward stays Table I term for term, but a terminal end forfeits the ~10 per second Table I
     pays a robot standing on four feet, so a crouch under the bar (where every Table I run
-    drifts: docs/training.md) is no longer worth as much as a stance above it. Like the
-    goal-set term, this brings the goal bar into training, so model cards flag it. A robot
-    passing through a crouch on its way up is spared by the grace time."""
+    drifts: docs/training.md, *Choices that are not in the seed*) is worth less than a stance
+    above it. This brings the goal bar into training, so model cards flag it. A robot passing
+    through a crouch on its way up is spared by the grace time."""
     low_stance_leaky: bool = False
     """With ``terminate_low_stance_s``: count a stance on three or four feet under the bar, let
     other steps outside the goal set only take one step off the count, and clear it in the
     goal set. Off, a single step with a foot lifted or above the bar clears the count, which a
-    robot creeping downhill on the incline does all the time (docs/training.md)."""
+    robot creeping downhill on the incline does all the time (docs/training.md, *Choices that are
+    not in the seed*)."""
     restart_stuck: float = 0.0
     """Share of new training episodes that start, with no new fall, from the final state of a
     recent episode that ended outside the goal set (its tile, randomisation factors and
     state, the clock reset), 0 = off. The flat plateau's failures are postures the policy
-    stalls in (sitting on the rear legs: docs/training.md); this puts them in the batch as
-    starts. Unlike ``replay_failed`` these starts are not draws of the seed's fall protocol.
-    Up to ``num_envs`` end states are kept; each is used once, picked at random. Under Table
-    I it sped the flat teacher's drift into the crouch (docs/training.md)."""
+    stalls in (sitting on the rear legs; docs/training.md, *`flat` (student, one frame)*); this
+    puts them in the batch as starts, which are not draws of the seed's fall protocol.
+    Up to ``num_envs`` end states are kept; each is used once, picked at random. The escape
+    specialist of ``flat``'s lineage trained from these starts alone (1.0, with
+    ``restart_tilted_only``)."""
     restart_tilted_only: bool = False
     """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
     limit (lying on the back or side), not upright ones such as a crouch under the bar."""
@@ -84,11 +85,9 @@ class EpisodeConfig:
     """Final stretch of an episode that decides promotion (s)."""
     rough_variants: Annotated[int, Suppress] = 8
     """Tiles of the ``rough`` context, roughness extents evenly spaced up to ``rough_max_extent_m``;
-    each is one fixed noise draw. With 8 a teacher that reads a height scan learns those tiles:
-    ``rough-dc-teacher`` scores 74 % on its level-12 training tile and 58 % on fresh ones
-    (``scripts/train_tiles.py``); 64 lifted it from 80.7 to 86.0 % on the benchmark's (fresh)
-    tiles, seeds 0–7 (docs/training.md, *Sixty-four training tiles for the rough teacher*).
-    The default stays 8 so the shipped runs' commands reproduce; pass 64 for new rough runs."""
+    each is one fixed noise draw. The ``rough`` lineage trained on 8; 64 lift the rough teacher
+    from 80.7 to 86.0 % on the benchmark's (fresh) tiles, seeds 0–7, but not its student
+    (docs/training.md, *Tried, did not help*)."""
     rough_max_extent_m: Annotated[float, Suppress] = 0.35
     """Largest peak-to-peak roughness extent of the ``rough`` context (m). 0.35 m covers
     ``--grid rough`` (levels 4, 8, 12: 0.105, 0.21, 0.32 m) with a margin, so the policy is
@@ -171,20 +170,15 @@ class DistillationConfig:
     tell the slope from one IMU reading, while a few frames show which way it slides.
     Deployment stacks frames the same way (``selfright.policies.history``)."""
     fallback_teacher: str | None = None
-    """A second teacher checkpoint that labels some states instead of the first
-    (``selfright.train.fallback_teacher``): those where the robot has stalled under the first
-    (still for ``stall_s`` while tilted more than 30° or under the goal bar, then for
-    ``fallback_s``), or, with ``fallback_tilt_deg``, every state tilted over. It needs the first
-    teacher's network; if it was trained around the other fixed action reference (``stand`` /
-    ``tall``), its labels are converted to the student's. None = one teacher."""
+    """A second teacher checkpoint that labels every state tilted more than
+    ``fallback_tilt_deg`` from upright instead of the first (``selfright.train.fallback_teacher``).
+    It needs the first teacher's network; if it was trained around the other fixed action
+    reference (``stand`` / ``tall``), its labels are converted to the student's. None = one
+    teacher."""
     fallback_tilt_deg: float = 0.0
-    """With ``fallback_teacher``: it labels every state whose trunk is tilted more than this
-    from upright (deg), the first teacher the rest; a rule of the current state alone
-    (``selfright.policies.stall.TiltSwitch``). 0 = the stall rule."""
-    fallback_s: Annotated[float, Suppress] = 2.0
-    """How long the fallback teacher labels after a stall (s)."""
-    stall_s: Annotated[float, Suppress] = 0.5
-    """How long the robot must have been still before the fallback teacher labels (s)."""
+    """With ``fallback_teacher`` (required there, in (0, 180)): it labels every state whose trunk
+    is tilted more than this from upright (deg), the first teacher the rest; a rule of the
+    current state alone (``selfright.train.tilt.TiltSwitch``)."""
     student_init_std: Annotated[float, Suppress] = 0.1
     """Action noise of the student while it collects its own rollouts (action units)."""
     stance_ramp_s: float = 0.0
@@ -193,7 +187,7 @@ class DistillationConfig:
     the labels, blended over this long (s) to ``stance_pose`` once the trunk has been upright
     within ``stance_tilt_deg`` for ``stance_delay_s``; the new student starts as a copy of it
     (or of ``--init-from``). 0 with a student ``--teacher``: the labels are its actions as they
-    are. Either way the labelling student reads the exact sensors, whatever the sensor noise.
+    are. Either way the labelling student reads the exact sensors.
     **Not** the seed's recipe (its labels add a hand-set stance; model cards say so). 0 = off."""
     stance_delay_s: float = 2.0
     """With ``stance_ramp_s``: how long the trunk must have been upright before the blend starts (s)."""
@@ -205,7 +199,8 @@ class DistillationConfig:
     stance_weight: float = 1.0
     """With ``stance_ramp_s``: how far the labels blend, in (0, 1]: 1 = all the way to
     ``stance_pose``; 0.3 = the base student's action moved 30 % of the way there, its own
-    balance corrections kept (on the 20° incline the full stance tips over; docs/training.md)."""
+    balance corrections kept (``incline``'s lineage; docs/training.md, *`incline` (student, 25
+    frames, DC envelope)*)."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -1,13 +1,13 @@
-"""A composite frozen teacher for distillation: the primary teacher acts, and a second
-(fallback) teacher where a hand-over rule of ``selfright.policies.stall`` says so, per env,
-evaluated on the teacher observation: for a while after the robot has stalled
-(``StallSwitch``), or whenever it is tilted over (``TiltSwitch``).
+"""A composite frozen teacher for distillation: the primary teacher acts where the trunk is
+upright within ``--train.distillation.fallback-tilt-deg``, a second (fallback) teacher wherever
+it is tilted more (``selfright.train.tilt.TiltSwitch``, evaluated per env on the teacher
+observation).
 
 The flat teacher's misses are postures it lies or sits still in; a specialist trained with
 large exploration noise from those postures gets the robot out of them (docs/training.md,
-*What the flat failures are*). Distilling one student from the pair puts both into a single
-sensor-only network: the labels are the fallback's actions in the states where it acts. With
-the tilt rule the label is a function of the current state, which a one-frame student sees.
+*`flat` (student, one frame)*). Distilling one student from the pair puts both into a single sensor-only
+network: the labels are the fallback's actions in the states where it acts. The rule is a
+function of the current state, which a one-frame student sees.
 
 The two teachers may have been trained around different fixed action references (``stand`` /
 ``tall``): the fallback's actions are then shifted into the primary's (the student's) units and
@@ -21,12 +21,12 @@ import torch
 from torch import nn
 
 from selfright.policies.reference import ReferenceShift
-from selfright.policies.stall import ScanSwitch, StallSwitch, TiltSwitch
+from selfright.train.tilt import TiltSwitch
 
 
 class FallbackTeacher(nn.Module):
-    """``primary``'s action, or ``fallback``'s where ``switch`` hands over. Keeps the switch's
-    per-env state; rsl_rl's ``Distillation`` calls ``reset(dones)`` every step.
+    """``primary``'s action, or ``fallback``'s where ``switch`` says the trunk is tilted over.
+    rsl_rl's ``Distillation`` calls ``reset(dones)`` every step.
 
     Args:
         fallback_offset: (J,) (fallback's reference pose − primary's) / action scale, in action
@@ -34,17 +34,16 @@ class FallbackTeacher(nn.Module):
     """
 
     def __init__(
-        self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: StallSwitch | TiltSwitch | ScanSwitch,
+        self, primary: nn.Module, fallback: nn.Module, num_envs: int, switch: TiltSwitch,
         fallback_offset: torch.Tensor | None = None,
     ):
         super().__init__()
         self.primary, self.fallback, self.switch = primary, fallback, switch
-        self.slots = torch.arange(num_envs)
         self.shift = ReferenceShift(fallback_offset, num_envs)
 
     def forward(self, obs) -> torch.Tensor:
         x = obs["teacher"]
-        use = self.switch.step(x, self.slots).to(x.device)
+        use = self.switch.step(x).to(x.device)
         return torch.where(use[:, None], self._fallback_action(obs), self.primary(obs))
 
     def _fallback_action(self, obs) -> torch.Tensor:
@@ -57,10 +56,7 @@ class FallbackTeacher(nn.Module):
 
     def reset(self, dones: torch.Tensor | None = None, hidden_state=None) -> None:
         if dones is not None:
-            self.switch.reset(dones.bool().cpu())
             self.shift.reset(dones.bool().cpu())
-        if isinstance(self.primary, FallbackTeacher):  # a nested composite (``rough_teacher``)
-            self.primary.reset(dones)
 
     def get_hidden_state(self):
         return None

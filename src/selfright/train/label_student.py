@@ -19,7 +19,7 @@ __all__ = ["is_student", "load_student", "student_train_config"]
 def load_student(path: Path, flag: str = "--init-from") -> ActorMLP:
     """A distilled student: a student run folder or ``model_<it>.pt``, a policy
     file from ``selfright export``, or a shipped policy name (``incline``). ``ValueError`` if it
-    is not a feed-forward student."""
+    is not a student."""
     p = path if path.exists() else shipped_path(str(path))
     if not p.exists():
         raise ValueError(f"{flag} {path}: neither a run, a checkpoint, a policy file nor a shipped policy name")
@@ -30,14 +30,12 @@ def load_student(path: Path, flag: str = "--init-from") -> ActorMLP:
     if m.obs_group != "student":
         raise ValueError(f"{flag} {p} reads the {m.obs_group!r} observations; it must be a student "
                          "(a teacher goes on training with --role teacher --init-from)")
-    if actor.recurrent or actor.estimator is not None:
-        raise ValueError(f"{flag} {p}: only feed-forward students (no GRU, no velocity estimator) here")
     return actor
 
 
 def is_student(path: Path) -> bool:
-    """Whether ``path`` (a run folder, a checkpoint or a policy file) holds a feed-forward or any
-    other student (an actor on the ``student`` observations), not a teacher."""
+    """Whether ``path`` (a run folder, a checkpoint or a policy file) holds a student (an actor
+    on the ``student`` observations), not a teacher."""
     try:
         return load_torch_actor(latest_checkpoint(path) if path.is_dir() else path).meta.obs_group == "student"
     except ValueError:

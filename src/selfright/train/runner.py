@@ -33,12 +33,9 @@ from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.goal import goal_height_m
 from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
-from selfright.policies.pose_blend import stance_action
 from selfright.policies.reference import reference_offset
-from selfright.policies.stall import hand_over_rule
 from selfright.policies.run_files import (
     CHECKPOINT_RE,
     META_FILE,
@@ -50,8 +47,9 @@ from selfright.train.config import LABEL_GROUP, PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.train.fallback_teacher import FallbackTeacher
 from selfright.train.label_student import is_student, load_student, student_train_config
-from selfright.train.stance_teacher import StanceTeacher
+from selfright.train.stance_teacher import StanceTeacher, stance_action
 from selfright.train.run_lock import run_lock
+from selfright.train.tilt import TiltSwitch
 from selfright.train.vecenv import RecoveryVecEnv
 
 PROGRESS_EVERY_S = 10.0
@@ -174,6 +172,9 @@ class TrainingRun:
         if d.stance_ramp_s > 0 and s.role != "student":
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
                              "(--role student, --teacher STUDENT, no fallback teacher)")
+        if d.fallback_teacher is not None and not 0.0 < d.fallback_tilt_deg < 180.0:
+            raise ValueError("--train.distillation.fallback-teacher needs --train.distillation.fallback-tilt-deg "
+                             "in (0, 180): the tilt from upright beyond which the fallback teacher labels")
         if self.labels_from_student and d.fallback_teacher is not None:
             raise ValueError("a student labelled by another student (--teacher STUDENT"
                              + (", --train.distillation.stance-ramp-s" if d.stance_ramp_s > 0 else "")
@@ -301,7 +302,7 @@ class TrainingRun:
 
     def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
         """Replace rsl_rl's teacher by ``FallbackTeacher`` (the ``--teacher`` and the fallback
-        checkpoint, same network, handing over by the tilt or the stall rule); loads both
+        checkpoint, same network, handing over by the tilt rule); loads both
         unless a resumed checkpoint will."""
         s, alg = self.spec, self.runner.alg
         d = s.train.distillation
@@ -311,11 +312,8 @@ class TrainingRun:
                 primary.load_state_dict(torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)["actor_state_dict"])
             except RuntimeError as e:
                 raise ValueError(f"--teacher {self.teacher_ckpt}: {e}") from None
-        robot = self.env.env.robot
         second, offset = self._second_teacher(path, "fallback-teacher")
-        switch = hand_over_rule(d.fallback_tilt_deg, d.stall_s, d.fallback_s, s.bench.sim.control_dt_s,
-                                goal_height_m(s.bench.goal, robot.leg_length_m), robot.num_joints)
-        composite = FallbackTeacher(primary, second, s.num_envs, switch, offset).to(s.device).eval()
+        composite = FallbackTeacher(primary, second, s.num_envs, TiltSwitch(d.fallback_tilt_deg), offset).to(s.device).eval()
         alg.teacher = alg._raw_teacher = composite
         alg.teacher_loaded = True
 
@@ -386,14 +384,11 @@ class TrainingRun:
             "hidden_dims": list(pol.hidden_dims),
             "activation": pol.activation,
             "obs_normalization": pol.obs_normalization,
-            "state_dependent_std": False,
             "role": "student" if student else "teacher",
             "context": self.spec.context,
             "action_reference": self.spec.bench.action.reference,
             "action_scale_rad": self.spec.bench.action.scale_rad,
             "obs_history": self.spec.train.distillation.student_history if student else 1,
-            "gru_dim": 0,
-            "estimator_dims": [],
             # the motor model it trains with: a checkpoint copied out of its run still runs as trained
             "motor": self.spec.bench.robot.motor,
             "motor_speed_rad_s": self.spec.bench.robot.motor_speed_rad_s or 0.0,

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from selfright.config import ContextConfig, RobotConfig
+from selfright.config import RobotConfig
 from selfright.env.rewards import RewardConfig
 from selfright.evaluate.results import factor_flags, recorded_sensor_noise
 from selfright.policies.registry import CHECKPOINT_DIR
@@ -126,14 +126,7 @@ def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
     fb = d.get("fallback_teacher")
     if not fb:
         return None, ""
-    if d.get("fallback_tilt_deg", 0.0) > 0:
-        rough = d.get("rough_teacher")
-        upright = f" where the trunk is upright within {d['fallback_tilt_deg']:g}°"
-        if rough:
-            upright += (f" over smooth ground, from `{rough}` where it is upright and the height scan spreads over "
-                        f"{d.get('rough_scan_std_m', 0.027):g} m")
-        return fb, upright + f", and from `{fb}` where it is tilted more"
-    return fb, f" except for {d.get('fallback_s')} s after each stall, labelled by `{fb}`"
+    return fb, f" where the trunk is upright within {d.get('fallback_tilt_deg', 0.0):g}°, and from `{fb}` where it is tilted more"
 
 
 def _student_label_words(meta: dict[str, Any]) -> str:
@@ -143,51 +136,20 @@ def _student_label_words(meta: dict[str, Any]) -> str:
     ramp = d.get("stance_ramp_s", 0.0)
     start = (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
              else ", and it started as a copy of that student")
-    labelled = " on exact sensors" if _sensor_noise(meta) else ""
-    hold = d.get("hold_after_s", 0.0)
-    if hold:
-        bar = d.get("hold_height_m")
-        labelled += (f"; once the robot has stood still for {hold:g} s (upright within {d.get('stance_tilt_deg', 15.0):g}°, "
-                     f"the trunk {'over ' + format(bar, 'g') + ' m' if bar is not None else 'over the goal bar'} above the "
-                     f"ground beneath it, slower than {d.get('hold_speed_mps', 0.1):g} m/s, every joint slower than "
-                     f"{d.get('hold_joint_speed_rad_s', 1.0):g} rad/s) its label is the action it took the step before")
     if not ramp:
         if not meta.get("labels_from_student"):
             return ""
-        return f"; its labels are that student's own actions{labelled}{start} (**not the seed's recipe**)"
+        return f"; its labels are that student's own actions{start} (**not the seed's recipe**)"
     pose = ", ".join(f"{v:g}" for v in d.get("stance_pose", ()))
     weight = d.get("stance_weight", 1.0)
     share = "" if weight == 1.0 else f"{weight:g} of the way "
     return (f"; its labels are that student's own actions, blended over {ramp:g} s {share}to a fixed stance (hip, thigh, "
             f"knee {pose} rad on every leg) once the trunk has been upright within {d.get('stance_tilt_deg', 15.0):g}° "
-            f"for {d.get('stance_delay_s', 2.0):g} s"
-            + (f"; a robot that has lain still, tilted over, for {d.get('stall_s', 0.5):g} s is labelled for "
-               f"{d.get('rescue_s', 1.0):g} s by the student `{d['rescue_student']}`" if d.get("rescue_student") else "")
-            + labelled + start + " (**not the seed's recipe**)")
+            f"for {d.get('stance_delay_s', 2.0):g} s" + start + " (**not the seed's recipe**)")
 
 
-def _sensor_noise(meta: dict[str, Any]) -> float:
-    """The sensor-noise scale the run trained its student observation under (0 = exact sensors)."""
-    r = (meta.get("train_config") or {}).get("randomization") or {}
-    return float(r.get("sensor_noise", 0.0)) if r.get("enabled", True) else 0.0
-
-
-def noise_lines(meta: dict[str, Any]) -> list[str]:
-    """A card line for a student trained under sensor noise (``--train.randomization.sensor-noise``)."""
-    scale = _sensor_noise(meta)
-    if not scale:
-        return []
-    return [f"- **Sensor noise**: trained reading its sensors through additive Gaussian noise at scale {scale:g} "
-            f"(`selfright.env.observations.SENSOR_NOISE_STD`); `selfright evaluate --sensor-noise {scale:g}` scores it "
-            "through that noise, without the option on the benchmark's exact sensors"]
-
-
-def _lineage(meta: dict[str, Any], teacher: str | None, label_words: str) -> str:
-    """How the policy came from its teacher: distilled, or (student-ppo) PPO on its own
-    observations from a distilled student, with the teacher's critic."""
-    if meta.get("role") == "student-ppo":
-        return (f", trained with PPO on its own observations from the distilled student `{meta.get('init_from')}`, "
-                f"its privileged critic starting as `{teacher}`'s")
+def _lineage(teacher: str | None, label_words: str) -> str:
+    """How the policy came from its teacher: distilled, with the words for its labels."""
     return f", distilled from `{teacher}`{label_words}" if teacher else ""
 
 
@@ -195,7 +157,7 @@ def model_card(
     name: str, meta: dict[str, Any], summary: dict[str, Any], actor: ActorMeta, notes: str = ""
 ) -> str:
     """Markdown model card from a run's meta, an evaluation summary, the shipped actor's
-    metadata (what it reads: group, history frames, GRU) and optional notes."""
+    metadata (what it reads: group, history frames) and optional notes."""
     steps = int(meta.get("env_steps", 0))
     hours = float(meta.get("wall_clock_s", 0.0)) / 3600
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
@@ -203,21 +165,17 @@ def model_card(
     fallback, fallback_words = _fallback_teacher(meta)
     label_words = fallback_words + _student_label_words(meta)  # how the distillation labels were made
     pol = meta.get("policy") or {}
-    ppo_student = meta.get("role") == "student-ppo"
     lines = [
         f"# Model card: `{name}`",
         "",
         f"- **Role**: {meta.get('role')} (observation group `{actor.obs_group}`"
         + (f", its last {actor.obs_history} frames stacked oldest first" if actor.obs_history > 1 else "")
-        + (f", through a GRU of {actor.gru_dim} units that remembers the episode" if actor.gru_dim > 0 else "")
-        + (f", with a trunk-velocity estimator ({'-'.join(map(str, actor.estimator_dims))} units) trained on the "
-           "privileged velocity, whose estimate its MLP reads)" if actor.estimator_dims else ")")
-        + _lineage(meta, teacher, label_words),
+        + ")"
+        + _lineage(teacher, label_words),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`"
            if meta.get("init_from") and meta.get("role") == "teacher" else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
-        + _budget("the student it started from", meta.get("init_from") if ppo_student else None)
         + _budget("the student that labelled it" if meta.get("labels_from_student") else "its teacher", teacher)
         + _budget("its fallback teacher", fallback)
         + _budget("before that, its initialisation", meta.get("init_from") if meta.get("role") == "teacher" else None)
@@ -226,7 +184,6 @@ def model_card(
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
         *motor_lines(meta),
         *joint_stop_lines(meta),
-        *noise_lines(meta),
         f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
@@ -350,26 +307,8 @@ def reward_summary(meta: dict[str, Any]) -> str:
     episode = (source.get("train_config") or {}).get("episode") or {}
     low = episode.get("terminate_low_stance_s")
     rule = ""
-    if episode.get("incline_slopes_deg") and not episode.get("curriculum"):
-        slopes = ", ".join(f"{d:g}°" for d in episode["incline_slopes_deg"])
-        rule += f"; incline training tiles of {slopes}, one drawn per episode (the benchmark's: 20°)"
-    if episode.get("wall_gap_ratios"):
-        gaps = ", ".join(f"{g:g}" for g in episode["wall_gap_ratios"])
-        rule += f"; training worlds between side walls {gaps} body lengths apart besides open ground, one drawn per episode"
-    if episode.get("ground_timeconsts_s"):
-        tcs = ", ".join(f"{t:g} s" for t in episode["ground_timeconsts_s"])
-        rule += (f"; training worlds on softer ground (contact time constants {tcs}) besides the benchmark's "
-                 f"{ContextConfig().ground_timeconst_s:g} s")
-    if episode.get("stand_start"):
-        rule += (f"; {episode['stand_start']:.0%} of training episodes started standing with a random trunk velocity"
-                 " instead of with the seed's fall (not in the seed)")
-    if episode.get("restart_arrivals"):
-        rule += (f"; {episode['restart_arrivals']:.0%} of training episodes restarted at recorded arrivals upright"
-                 " instead of with the seed's fall (not in the seed)")
     if episode.get("off_tile_is_timeout") is False:
         rule += "; leaving the tile ended training episodes as terminal (the project's default ends them as a time-out)"
-    if episode.get("terminate_on_refall"):
-        rule += f"; training episodes ended as terminal at a tip past {refall_tilt}° after upright (not in the seed)"
     if low:
         stance = "three or four feet (a leaky count)" if episode.get("low_stance_leaky") else "four feet"
         over_feet = episode.get("low_stance_over_feet_m")

@@ -60,22 +60,6 @@ def best_score(scores: list[Score]) -> Score | None:
     return max(scores, key=lambda s: (s.success_rate, -s.iteration), default=None)
 
 
-@dataclass(frozen=True)
-class Partner:
-    """The frozen policy a run trains beside (``EpisodeConfig.upright_policy`` /
-    ``tilted_policy``): validation scores the composite, which is what such a run is for."""
-
-    policy: str
-    acts_when: str
-    """``"upright"`` (within ``tilt_deg`` of upright) or ``"tilted"`` (beyond it)."""
-    tilt_deg: float
-
-    @property
-    def label(self) -> str:
-        """How results and progress lines name the partner."""
-        return f"under {self.policy} ({self.acts_when})"
-
-
 def evaluate_checkpoint(
     ckpt: Path,
     *,
@@ -86,25 +70,16 @@ def evaluate_checkpoint(
     seed: int,
     out_dir: Path,
     bench: BenchmarkConfig,
-    partner: Partner | None = None,
 ) -> Score:
     """Success of checkpoint ``ckpt`` (saved after ``iteration``, ``env_steps``) on ``grid``
-    (``episodes`` per cell, run seed ``seed``); with ``partner``, of the composite that hands
-    over between the two by tilt, as in training."""
+    (``episodes`` per cell, run seed ``seed``). A student is scored alone, without the
+    fallback teacher it may have been distilled beside."""
     from selfright.evaluate.runner import evaluate_grid
     from selfright.policies.registry import make_policy
 
     policy = make_policy(str(ckpt), bench)
-    if partner is not None:
-        from selfright.policies.stall import TiltSwitch
-        from selfright.policies.variants import Fallback
-
-        other = make_policy(partner.policy, bench)
-        upright, tilted = (other, policy) if partner.acts_when == "upright" else (policy, other)
-        policy = Fallback(upright, tilted, TiltSwitch(partner.tilt_deg))
     res = evaluate_grid(
-        policy, policy_name=ckpt.name + (f" {partner.label}" if partner else ""), grid=grid, episodes=episodes, seed=seed,
-        out_dir=out_dir, cfg=bench, progress=False,
+        policy, policy_name=ckpt.name, grid=grid, episodes=episodes, seed=seed, out_dir=out_dir, cfg=bench, progress=False,
     )
     o = res.summary["overall"]
     return Score(iteration, env_steps, int(o["successes"]), int(o["n"]))
