@@ -46,8 +46,8 @@
 # recorded one. Where a run's validation (its validation.csv) stays well under the recorded one,
 # train it further (--resume --iterations N) and point its child at the checkpoint that
 # validates as well. The runs recorded with MuJoCo's softer joint stops train with them
-# (--joint-stop-timeconst-s 0.02); the flat teacher's two settings that are no longer options
-# are noted at its run.
+# (--joint-stop-timeconst-s 0.02); two settings of the flat teacher's run that the CLI does not
+# expose are noted at it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 usage="usage: bash scripts/train_policies.sh flat-teacher|flat|rough-teacher|rough|incline-teacher|incline|all"
@@ -124,8 +124,8 @@ SOFT_STOPS=(--joint-stop-timeconst-s 0.02)
 
 flat_teacher() {
   # PPO from scratch; z* = 0.32 m (the goal bar) for the first 1,079 iterations, the default
-  # 0.35 m after. Two recorded settings are no longer options: leaving the tile ended an episode
-  # as a terminal state (EpisodeConfig.off_tile_is_timeout now ends it as a time-out; on the
+  # 0.35 m after. Two recorded settings are not CLI options: leaving the tile ended an episode
+  # as a terminal state (EpisodeConfig.off_tile_is_timeout ends it as a time-out; on the
   # flat plane no training episode left the tile), and episode starts were settled one by one
   # (EpisodeConfig.prepare_starts settles them in batches: same distribution, another stream).
   local f=(--role teacher --context flat --envs 128 --physics-threads 2 "${SOFT_STOPS[@]}" --train.keep-checkpoints 0)
