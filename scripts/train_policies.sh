@@ -41,6 +41,9 @@
 #   in all, per stage: flat-teacher 10.6 M / 0.63 h, flat 22.8 M / 1.65 h, rough-teacher 55.4 M / 3.71 h,
 #   rough 59.9 M / 3.88 h, incline-teacher 14.4 M / 1.66 h, incline 19.4 M / 2.11 h (all: 102 M / 7.6 h)
 #
+# Every run trains under the current benchmark version (docs/benchmark.md, *Benchmark versions*):
+# the recorded runs listed above trained under version 0.
+#
 # A rerun is a draw of the recipe, not a copy of the shipped weights: physics and episode draws
 # depend on thread counts and machine, and a PPO run from scratch can take off later than the
 # recorded one. Where a run's validation (its validation.csv) stays well under the recorded one,
@@ -121,6 +124,9 @@ publish() {
 # MuJoCo's softer joint stops, which the flat lineage and the rough and incline runs from scratch
 # trained with (the benchmark's are 0.01 s).
 SOFT_STOPS=(--joint-stop-timeconst-s 0.02)
+# The ideal servos (full torque at any speed), which the flat lineage and the rough and incline
+# runs from scratch trained with (the benchmark's motors are the A1's DC motors, `dcmotor`).
+IDEAL=(--motor ideal)
 
 flat_teacher() {
   # PPO from scratch; z* = 0.32 m (the goal bar) for the first 1,079 iterations, the default
@@ -128,7 +134,7 @@ flat_teacher() {
   # as a terminal state (EpisodeConfig.off_tile_is_timeout ends it as a time-out; on the
   # flat plane no training episode left the tile), and episode starts were settled one by one
   # (EpisodeConfig.prepare_starts settles them in batches: same distribution, another stream).
-  local f=(--role teacher --context flat --envs 128 --physics-threads 2 "${SOFT_STOPS[@]}" --train.keep-checkpoints 0)
+  local f=(--role teacher --context flat --envs 128 --physics-threads 2 "${SOFT_STOPS[@]}" "${IDEAL[@]}" --train.keep-checkpoints 0)
   step flat_teacher_best 1079 "${f[@]}" --train.reward.target-height-m 0.32
   step flat_teacher_best 3446 "${f[@]}"
 }
@@ -145,24 +151,24 @@ flat() {
 c['actor_state_dict']['distribution.std_param'].fill_(0.5); torch.save(c, '$init/model_3445.pt')"
   fi
   step flat_escape_std05 967 --role teacher --context flat --init-from "$init/model_3445.pt" --envs 128 \
-    --physics-threads 2 "${SOFT_STOPS[@]}" --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
+    --physics-threads 2 "${SOFT_STOPS[@]}" "${IDEAL[@]}" --train.ppo.learning-rate 1.5e-5 --train.ppo.entropy-coef 0.01 \
     --train.episode.restart-stuck 1.0 --train.episode.restart-tilted-only --train.checkpoint-every-s 240 \
     --train.keep-checkpoints 0
   # The student of the pair: the teacher labels states upright within 45 deg, the specialist the rest.
   step flat_student_tilt45_e512 361 --role student --context flat --teacher "$ROOT/flat_teacher_best/model_3445.pt" \
-    --envs 512 --physics-threads 1 "${SOFT_STOPS[@]}" \
+    --envs 512 --physics-threads 1 "${SOFT_STOPS[@]}" "${IDEAL[@]}" \
     --train.distillation.fallback-teacher "$ROOT/flat_escape_std05/model_966.pt" --train.distillation.fallback-tilt-deg 45 \
     --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
   # `flat`: that student's own labels blended over 2 s to the tall stance after 1 s upright.
   step flat_student_stance 395 --role student --context flat --teacher "$ROOT/flat_student_tilt45_e512/model_360.pt" \
-    --envs 512 --physics-threads 1 "${SOFT_STOPS[@]}" --train.distillation.stance-ramp-s 2.0 \
+    --envs 512 --physics-threads 1 "${SOFT_STOPS[@]}" "${IDEAL[@]}" --train.distillation.stance-ramp-s 2.0 \
     --train.distillation.stance-delay-s 1.0 --train.validation.episodes 128 --train.checkpoint-every-s 150 \
     --train.keep-checkpoints 0
 }
 
 rough_teacher() {
   # PPO from scratch on rough ground with the roughness curriculum, ideal servos.
-  step rough_scratch 2217 --role teacher --context rough --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" \
+  step rough_scratch 2217 --role teacher --context rough --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" "${IDEAL[@]}" \
     --action-reference tall --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.38 \
     --train.episode.curriculum --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
     --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
@@ -186,7 +192,7 @@ rough() {
 
 incline_teacher() {
   # PPO from scratch with the slope curriculum 5 -> 20 deg, ideal servos.
-  step incline_scratch_narrow 1929 --role teacher --context incline --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" \
+  step incline_scratch_narrow 1929 --role teacher --context incline --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" "${IDEAL[@]}" \
     --action-reference tall --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 \
     --train.episode.curriculum --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
     --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
@@ -205,17 +211,19 @@ incline_teacher() {
 
 incline() {
   incline_teacher
-  # The distillation, 25 frames, in the DC envelope (the ideal servos with the targets held to
-  # the DC motors' torque-speed limit, as the student is scored); model_479 was chosen on
-  # evaluation seeds 4-11 among its checkpoints from 130 on (scripts/select_checkpoints.py).
+  # The distillation, 25 frames; model_479 was chosen on evaluation seeds 4-11 among its
+  # checkpoints from 130 on (scripts/select_checkpoints.py). This run and the next were recorded
+  # with an approximation of the DC motors (the ideal servos with each control step's targets
+  # held to the DC motors' torque-speed limit, recorded as motor "envelope"); they train here
+  # with the DC motors themselves.
   step incline_h25_sel_seed31 480 --role student --context incline --teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" \
-    --seed 31 --motor envelope --action-reference tall --envs 256 --physics-threads 1 --torch-threads 1 \
+    --seed 31 --motor dcmotor --action-reference tall --envs 256 --physics-threads 1 --torch-threads 1 \
     --train.randomization.friction 0.6 1.2 --train.distillation.student-history 25 --train.validation.episodes 64 \
     --train.checkpoint-every-s 120 --train.keep-checkpoints 0
   # `incline`: that student's labels moved 30 % of the way to the tall stance over 1 s after 1 s
   # upright within 35 deg.
   step incline_h25_sel31_479_stance03 340 --role student --context incline \
-    --teacher "$ROOT/incline_h25_sel_seed31/model_479.pt" --seed 31 --motor envelope --action-reference tall \
+    --teacher "$ROOT/incline_h25_sel_seed31/model_479.pt" --seed 31 --motor dcmotor --action-reference tall \
     --envs 256 --physics-threads 1 --torch-threads 1 --train.randomization.friction 0.6 1.2 \
     --train.distillation.stance-ramp-s 1.0 --train.distillation.stance-delay-s 1.0 \
     --train.distillation.stance-tilt-deg 35 --train.distillation.stance-weight 0.3 --train.validation.episodes 64 \
@@ -228,7 +236,7 @@ ship_rough_teacher() { rough_teacher; publish rough-teacher "$ROOT/rough_dc_teac
 ship_rough() { rough; publish rough "$ROOT/gpu_rough_h25w/model_721.pt" rough; }
 ship_incline_teacher() {
   incline_teacher
-  publish incline-teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" incline --motor dcmotor
+  publish incline-teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" incline
 }
 ship_incline() { incline; publish incline "$ROOT/incline_h25_sel31_479_stance03/model_339.pt" incline; }
 

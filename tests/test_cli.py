@@ -113,3 +113,22 @@ def test_evaluate_with_dc_motors_records_the_motor_model(tmp_path, capsys):
     assert summary["config"]["robot"]["motor"] == "dcmotor" and summary["machine"]["cores"] >= 1
 
 
+
+
+def test_goal_height_reference_option_is_recorded(tmp_path, capsys):
+    out = tmp_path / "terrain"
+    code, cap = run_cli(["evaluate", "--policy", "zero", "--grid", "flat", "--episodes", "1", "--episode-s", "0.2",
+                         "--goal-height-ref", "terrain", "--out", str(out), "--no-progress", "--no-plots"], capsys)
+    assert code == 0, cap.err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["config"]["goal"]["height_ref"] == "terrain" and summary["benchmark_version"] == 1
+
+
+def test_resuming_results_of_another_benchmark_version_is_refused(tmp_path, capsys):
+    out = tmp_path / "old"
+    out.mkdir()
+    (out / "run.json").write_text(json.dumps({"policy": "zero", "grid": "flat", "episodes_per_cell": 1, "seed": 0}))
+    code, cap = run_cli(["evaluate", "--policy", "zero", "--grid", "flat", "--episodes", "1", "--out", str(out),
+                         "--no-progress", "--no-plots"], capsys)
+    assert_clean_error(code, cap, f"{out} holds results of benchmark version 0; this is version 1: use a fresh --out directory")
+    assert not (out / "episodes.csv").exists()

@@ -24,7 +24,7 @@ def _export(name: str, where: Path) -> Path:
     return onnx_path
 
 
-@pytest.mark.parametrize("name", ["flat", "rough", "incline"])  # ideal servos; 25 frames + DC envelope; envelope
+@pytest.mark.parametrize("name", ["flat", "rough", "incline"])
 def test_controller_commands_the_benchmarks_targets(name, tmp_path):
     cfg = BenchmarkConfig()
     ctrl = OnnxController(_export(name, tmp_path))
@@ -63,7 +63,7 @@ def test_export_by_name_writes_the_contract_and_a_teacher_has_none(tmp_path, mon
     onnx_path, _ = export(ExportArgs(checkpoint=Path("incline")))
     assert onnx_path == Path("incline.onnx") and onnx_path.exists()
     spec = read_spec(onnx_path)
-    assert spec.motor == "envelope" and spec.envelope_speed_rad_s == 21.0 and spec.control_hz == 50.0
+    assert spec.motor == "dcmotor" and spec.motor_speed_rad_s == 21.0 and spec.control_hz == 50.0
     assert len(spec.obs_columns) == 6 + 3 * len(spec.joint_names)
     assert main([str(onnx_path)]) == 0 and '"action_reference"' in capsys.readouterr().out
     teacher, _ = export(ExportArgs(checkpoint=Path("incline-teacher")))

@@ -42,17 +42,17 @@ class _Episodes(FurtherFactors):
     """Seconds the goal set must be held for success."""
     episode_s: float = 10.0
     """Episode limit after settling (s)."""
+    goal_height_ref: Literal["feet", "terrain"] = "feet"
+    """The goal set's body height: over the mean of the feet's lowest points (the benchmark's) or over the ground beneath the trunk (for comparison)."""
     action_reference: Literal["stand", "current", "tall"] = "stand"
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
-    motor: Motor = "ideal"
-    """Motor model: ideal (full torque at any speed, the benchmark's default), dcmotor (torque falls to 0 at the motors' rated speed, 21 rad/s on the A1; rough, rough-teacher and incline-teacher trained with it) or envelope (the ideal servos with every policy's targets held to the DC motors' torque-speed envelope each control step; incline trained with it)."""
-    torque_envelope: bool = True
-    """A policy trained with --motor dcmotor or envelope, run on the ideal servos, holds its commands to the DC motors' torque-speed envelope (selfright.policies.torque_envelope); --no-torque-envelope runs it unchanged."""
+    motor: Motor = "dcmotor"
+    """Motor model: dcmotor (the A1's DC motors, the benchmark's default: 33.5 N·m at stall, the torque along the motion falling to 0 at the rated 21 rad/s) or ideal (full torque at any speed, for comparison)."""
 
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(
             threads=self.threads, batch_size=batch_size, hold_s=self.hold_s, episode_s=self.episode_s,
-            action_reference=self.action_reference, motor=self.motor, **self.factor_kwargs(),
+            height_ref=self.goal_height_ref, action_reference=self.action_reference, motor=self.motor, **self.factor_kwargs(),
         )
 
 
@@ -149,9 +149,9 @@ class BenchSim:
     """Physics threads (0 = one per core)."""
 
 
-def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: str = "stand", motor: str = "ideal",
+def _benchmark_config(threads: int = 0, batch_size: int = 64, action_reference: str = "stand", motor: str = "dcmotor",
                       **eval_kw) -> BenchmarkConfig:
-    goal = {k: eval_kw.pop(k) for k in ("hold_s", "episode_s") if k in eval_kw}
+    goal = {k: eval_kw.pop(k) for k in ("hold_s", "episode_s", "height_ref") if k in eval_kw}
     return BenchmarkConfig(
         sim=SimConfig(threads=threads), eval=EvalConfig(batch_size=batch_size, **eval_kw), goal=GoalConfig(**goal),
         action=ActionConfig(reference=action_reference), robot=RobotConfig(motor=motor),
@@ -167,7 +167,7 @@ def run_evaluate(a: Evaluate) -> None:
     if a.batch_size < 1:
         raise ValueError("--batch-size must be >= 1")
     out = a.out or Path("results") / f"{policy_stem(a.policy)}_{a.grid}"
-    policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
+    policy = make_policy(a.policy, cfg)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
         progress=a.progress,
@@ -190,7 +190,7 @@ def run_replay(a: Replay) -> None:
     out = a.out or Path("results") / (
         f"replay_{policy_stem(a.policy)}_{a.grid}_{cell.slope_level}-{cell.roughness_level}_{a.episode}_s{a.seed}"
     )
-    policy = make_policy(a.policy, cfg, envelope=a.torque_envelope)
+    policy = make_policy(a.policy, cfg)
     r = replay_episode(policy, cfg, cell, a.episode, a.seed)
     write_replay(out, r, {"policy": a.policy, "grid": a.grid, "seed": a.seed}, cfg)
     plot_trace(out)

@@ -14,6 +14,11 @@ from typing import Any, Literal
 BODY_LENGTH_M = 0.5
 """Unitree A1 overall length (m): the benchmark's unit for drop height and roughness bound."""
 
+BENCHMARK_VERSION = 1
+"""Version of the benchmark's definition (goal set, motor model, reward), recorded in every
+result (``summary.json``, ``run.json``, ``train_meta.json``, model cards); results of different
+versions are not comparable (docs/benchmark.md, *Benchmark versions*)."""
+
 
 @dataclass(frozen=True, kw_only=True)
 class TerrainConfig:
@@ -51,7 +56,7 @@ class ContextConfig:
     """Ground compliance: MuJoCo contact ``solref`` damping ratio (dimensionless)."""
 
 
-Motor = Literal["ideal", "dcmotor", "envelope"]
+Motor = Literal["dcmotor", "ideal"]
 """Motor models of the PD servos (``RobotConfig.motor``)."""
 
 
@@ -65,23 +70,16 @@ class RobotConfig:
     """PD stiffness of every joint (N·m/rad)."""
     kd: float = 1.0
     """PD damping of every joint (N·m·s/rad)."""
-    motor: Motor = "ideal"
-    """Motor model of the PD servos. ``ideal``: full torque (±33.5 N·m on the A1) at any speed,
-    the benchmark's default. ``envelope``: the ideal servos, with each control step's joint
-    targets moved so that the servo asks no more torque than a DC motor could give at the
-    joint's speed at the start of the step (``selfright.sim.dc_envelope``): what a policy
-    trained with ``dcmotor`` runs in on the ideal servos, applied by the env to any policy, so
-    one can be trained with the limit in the loop and scored on the benchmark's servos as it
-    was trained (docs/benchmark.md, *Motor models*). ``dcmotor``: MuJoCo's
-    DC-motor actuator run as a current-controlled driver (``input="pos"``, torque-space PD gains
-    ``kp``, ``kd``) whose drive voltage saturates, so the torque it can give falls linearly to 0
-    at the motors' rated speed (``RobotSpec.rated_joint_speed``, 21 rad/s on the A1), as on the
-    real robot. Policies trained with ideal servos rely on faster joints: with ``dcmotor`` they
-    score far lower (docs/training.md, *Choices that are not in the seed*). Policies trained with ``dcmotor``
-    run on the ideal servos in the DC torque envelope (``selfright.policies.torque_envelope``).
-    Opt-in; the CPU engine only."""
+    motor: Motor = "dcmotor"
+    """Motor model of the PD servos, applied by the MuJoCo actuator (``selfright.robots.a1``).
+    ``dcmotor``, the benchmark's default: MuJoCo's DC-motor actuator run as a current-controlled
+    driver (``input="pos"``, torque-space PD gains ``kp``, ``kd``) whose drive voltage saturates:
+    at joint speed ω it pushes along the motion with at most τ_s (1 − |ω|/ω₀) and brakes with at
+    most τ_s (stall torque τ_s = 33.5 N·m, no-load speed ω₀ = the rated 21 rad/s on the A1), as
+    on the real robot (docs/benchmark.md, *Motor models*). ``ideal``: MuJoCo position servos,
+    full torque (±33.5 N·m) at any speed, for comparison."""
     motor_speed_rad_s: float | None = None
-    """``dcmotor`` and ``envelope`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
+    """``dcmotor`` only: the speed (rad/s) at which the motors' torque reaches 0; None = the
     robot's rated speed (``RobotSpec.rated_joint_speed``). Faster than the real motors, it moves
     the model toward the ideal servos."""
     joint_stop_timeconst_s: float = 0.01
@@ -151,7 +149,12 @@ class GoalConfig:
     max_tilt_deg: float = 30.0
     """Roll and pitch must each be within this of gravity (deg)."""
     height_fraction: float = 0.8
-    """Trunk height above the ground beneath ≥ this × fully extended leg length."""
+    """Body height ≥ this × fully extended leg length (``height_ref`` says which height)."""
+    height_ref: Literal["feet", "terrain"] = "feet"
+    """What the body height is measured from, along gravity. ``feet``: the trunk origin above the
+    mean of the four feet's lowest points (foot centre minus radius), the height the legs produce
+    (the benchmark's definition). ``terrain``: the trunk origin above the ground beneath it, for
+    comparison only (it credits crouches on slopes and over hollows)."""
     hold_s: float = 1.0
     """Success needs the goal set held continuously this long (s)."""
     episode_s: float = 10.0

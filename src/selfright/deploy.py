@@ -16,13 +16,12 @@ control loop that needs only numpy and onnxruntime.
 4. Run the network: ``actions`` (1, J) from ``obs`` (1, H · frame).
 5. Joint targets = reference pose (``action_reference_pose_rad``, or the angles read in step 1
    for ``current``) + ``action_scale_rad`` × clip(action, ±``action_clip``), clipped to the joint
-   range. A policy trained against DC-motor limits (``envelope_speed_rad_s`` set) had its targets
-   moved so the servo asks no more torque than the motor's torque-speed envelope allows at the
-   joint's speed (``selfright.sim.dc_envelope``); the benchmark scores it so, and
-   ``OnnxController`` does the same unless told not to. A real A1's motors saturate by
-   themselves, which is what the policy trained for.
+   range.
 6. Send the targets to PD servos with gains ``kp``, ``kd`` (torque = kp (q* − q) − kd q̇, at most
-   ``torque_limit_nm``), held for one control period.
+   ``torque_limit_nm``), held for one control period. A policy trained with DC motors
+   (``motor_speed_rad_s`` set) expects the motors' own torque-speed limit: along the motion at
+   most ``torque_limit_nm`` (1 − |q̇| / ``motor_speed_rad_s``). A real A1's motors have it by
+   themselves; nothing in this loop applies it.
 
 ``OnnxController`` is that loop; ``tests/test_deploy.py`` checks that it commands the same joint
 targets as ``selfright evaluate`` does on the same sensor readings.
@@ -37,8 +36,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from selfright.sim.dc_envelope import envelope_held_targets
 
 DEPLOY_KEY = "deployment"
 """Key of the ``DeploymentSpec`` (JSON) in an exported ONNX file's metadata."""
@@ -82,10 +79,11 @@ class DeploymentSpec:
     obs_columns: tuple[str, ...]
     """The columns of one frame."""
     motor: str
-    """Motor model it trained with (``RobotConfig.motor``; empty if not recorded: ``ideal``)."""
-    envelope_speed_rad_s: float | None
-    """Trained against DC-motor limits (``dcmotor`` or ``envelope``): the motors' no-load speed
-    (rad/s), at which their torque reaches 0; None: ideal servos."""
+    """Motor model it trained with (``RobotConfig.motor``: ``dcmotor`` or ``ideal``; ``ideal`` if
+    not recorded)."""
+    motor_speed_rad_s: float | None
+    """Trained with DC motors: their no-load speed (rad/s), at which the torque along the motion
+    reaches 0; None: ideal servos."""
 
     def to_json(self) -> str:
         return json.dumps(asdict(self))
@@ -93,6 +91,9 @@ class DeploymentSpec:
     @staticmethod
     def from_json(text: str) -> DeploymentSpec:
         d = json.loads(text)
+        if "envelope_speed_rad_s" in d:  # the same no-load speed under its other recorded name
+            d["motor_speed_rad_s"] = d.pop("envelope_speed_rad_s")
+            d["motor"] = "dcmotor" if d["motor_speed_rad_s"] is not None else "ideal"
         if d.pop("gru_dim", 0):
             raise ValueError("this deployment contract is for a recurrent network; only feed-forward ones are supported")
         tuples = ("joint_names", "joint_low_rad", "joint_high_rad", "nominal_pose_rad", "obs_columns")
@@ -116,7 +117,6 @@ def deployment_spec(meta: Any, robot_cfg: Any = None, action_cfg: Any = None, si
     from selfright.config import ActionConfig, RobotConfig, SimConfig
     from selfright.env.observations import JOINT_VEL_SCALE
     from selfright.robots import get_robot
-    from selfright.sim.dc_envelope import envelope_speed
 
     if meta.obs_group != "student":
         raise ValueError(f"this actor reads the {meta.obs_group!r} observations (privileged simulator state); "
@@ -125,10 +125,9 @@ def deployment_spec(meta: Any, robot_cfg: Any = None, action_cfg: Any = None, si
     robot = get_robot(robot_cfg.name)
     reference = meta.action_reference or action_cfg.reference
     pose = robot.reference_pose(reference)
-    motor = meta.motor or "ideal"
-    speed = None
-    if motor in ("dcmotor", "envelope"):
-        speed = envelope_speed(meta.motor_speed_rad_s or None, robot.rated_joint_speed, robot.name)
+    # Files recording "envelope" trained against the same DC-motor limit, applied to their targets.
+    motor = "dcmotor" if meta.motor in ("dcmotor", "envelope") else "ideal"
+    speed = float(meta.motor_speed_rad_s or robot.rated_joint_speed) if motor == "dcmotor" else None
     return DeploymentSpec(
         robot=robot.name,
         joint_names=tuple(robot.joint_names),
@@ -147,7 +146,7 @@ def deployment_spec(meta: Any, robot_cfg: Any = None, action_cfg: Any = None, si
         obs_history=meta.obs_history,
         obs_columns=obs_columns(tuple(robot.joint_names)),
         motor=motor,
-        envelope_speed_rad_s=speed,
+        motor_speed_rad_s=speed,
     )
 
 
@@ -189,16 +188,11 @@ class OnnxController:
 
     Args:
         onnx_path: a ``selfright export`` ONNX file (it carries its ``DeploymentSpec``).
-        envelope: hold the targets to the DC motors' torque-speed envelope; default: when the
-            policy trained against it (as ``selfright evaluate`` runs it on ideal servos).
     """
 
-    def __init__(self, onnx_path: str | Path, envelope: bool | None = None):
+    def __init__(self, onnx_path: str | Path):
         self.session = _session(onnx_path)
         self.spec = spec = spec_from_metadata(self.session.get_modelmeta().custom_metadata_map, str(onnx_path))
-        self.envelope = spec.envelope_speed_rad_s is not None if envelope is None else envelope
-        if self.envelope and spec.envelope_speed_rad_s is None:
-            raise ValueError("this policy trained on ideal servos; it has no DC envelope to hold")
         self._nominal = np.asarray(spec.nominal_pose_rad)
         self._low, self._high = np.asarray(spec.joint_low_rad), np.asarray(spec.joint_high_rad)
         self._ref = None if spec.action_reference_pose_rad is None else np.asarray(spec.action_reference_pose_rad)
@@ -227,13 +221,8 @@ class OnnxController:
         out = self.session.run(None, {"obs": np.concatenate(self.frames)[None]})
         action = np.clip(out[0][0], -s.action_clip, s.action_clip)
         self.prev_action = action.astype(np.float32)
-        q, qd = np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64)
-        ref = q if self._ref is None else self._ref
-        target = np.clip(ref + s.action_scale_rad * action, self._low, self._high)
-        if self.envelope:  # as the benchmark's env does it
-            target = envelope_held_targets(target, ref, q, qd, s.action_scale_rad, s.action_clip, self._low,
-                                           self._high, s.kp, s.kd, s.torque_limit_nm, s.envelope_speed_rad_s)
-        return target
+        ref = np.asarray(q, dtype=np.float64) if self._ref is None else self._ref
+        return np.clip(ref + s.action_scale_rad * action, self._low, self._high)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -18,5 +18,5 @@ def test_privileged_height_column_is_the_trunk_height():
     ids = np.arange(2)
     env.reset(ids, np.zeros(2, int), [np.random.default_rng(s) for s in (1, 2)])
     obs = env.observe(ids, ("teacher",))["teacher"]
-    torch.testing.assert_close(obs[:, privileged_columns(12)["height"].start], env.robot_state(ids).height.float())
+    torch.testing.assert_close(obs[:, privileged_columns(12)["height"].start], env.robot_state(ids).height_over_feet)
     env.close()

@@ -23,10 +23,10 @@ def rot_x(angle: float) -> torch.Tensor:
 
 
 def make_ctx(**events: torch.Tensor) -> R.RewardContext:
-    """The three envs' reward context: zero actions, started at the origin, z* 0.32 m; ``events``
-    the optional fields (``in_goal``, ``refell``, ``left_tile``)."""
+    """The three envs' reward context: unchanged joint targets, started at the origin, z* 0.32 m;
+    ``events`` the optional fields."""
     return R.RewardContext(
-        action=torch.zeros(3, J), prev_action=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
+        joint_target=torch.zeros(3, J), prev_joint_target=torch.zeros(3, J), start_xy=torch.zeros(3, 2, dtype=torch.float64),
         joint_low=LOW, joint_high=HIGH, target_height_m=0.32, **events,
     )
 
@@ -42,6 +42,10 @@ def make_state() -> RobotState:
     torque[1] = 1.0  # ‖τ‖² = 12
     torque[2, :2] = torch.tensor([3.0, 4.0])  # ‖τ‖² = 25
     feet = torch.tensor([[True] * 4, [True, True, True, False], [False] * 4])
+    # foot centres: lowest points (centre − 0.02 m) average 0.0, 0.30 and 0.05 m
+    feet_z = torch.tensor([[0.02] * 4, [0.32, 0.36, 0.30, 0.30], [0.07] * 4], dtype=torch.float64)
+    feet_pos = torch.zeros(n, 4, 3, dtype=torch.float64)
+    feet_pos[:, :, 2] = feet_z
     return RobotState(
         pos=torch.tensor([[0.0, 0.0, 0.32], [0.3, 0.4, 0.52], [1.0, 0.0, 0.15]], dtype=torch.float64),
         rot=torch.stack([rot_x(0.0), rot_x(math.pi / 2), rot_x(math.pi)]),
@@ -52,7 +56,9 @@ def make_state() -> RobotState:
         torque=torque,
         feet_contact=feet,
         body_contacts=torch.tensor([0.0, 2.0, 5.0]),
-        ground_z=torch.tensor([0.0, 0.3, 0.05], dtype=torch.float64),
+        ground_z=torch.tensor([0.0, 0.35, 0.05], dtype=torch.float64),
+        feet_pos=feet_pos,
+        foot_radius=torch.full((4,), 0.02, dtype=torch.float64),
     )
 
 
@@ -69,8 +75,14 @@ def test_torque_l2():
     torch.testing.assert_close(R.torque_l2(make_state()), torch.tensor([0.0, -12.0, -25.0]))
 
 
-def test_base_height_uses_height_above_ground():
-    # heights above ground: 0.32, 0.22, 0.10; target 0.32
+def test_heights_over_feet_and_terrain():
+    rs = make_state()
+    torch.testing.assert_close(rs.height_over_feet, torch.tensor([0.32, 0.22, 0.10]), atol=1e-6, rtol=0)
+    torch.testing.assert_close(rs.height_over_terrain, torch.tensor([0.32, 0.17, 0.10]), atol=1e-6, rtol=0)
+
+
+def test_base_height_uses_height_over_feet():
+    # heights over the feet: 0.32, 0.22, 0.10 (over the terrain env 1 is at 0.17); target 0.32
     expected = torch.tensor([0.0, -(0.1**2), -(0.22**2)])
     torch.testing.assert_close(R.base_height_l2(make_state(), 0.32), expected, atol=1e-6, rtol=0)
 
@@ -79,12 +91,18 @@ def test_body_collisions():
     torch.testing.assert_close(R.body_collisions(make_state()), torch.tensor([0.0, -2.0, -5.0]))
 
 
-def test_action_rate_l2():
-    a = torch.zeros(2, J)
+def test_action_rate_l2_on_joint_targets():
+    q_star = torch.zeros(2, J)
     prev = torch.zeros(2, J)
-    a[0] = 1.0
+    q_star[0] = 1.0
     prev[1, 3] = -0.5
-    torch.testing.assert_close(R.action_rate_l2(a, prev), torch.tensor([-12.0, -0.25]))
+    torch.testing.assert_close(R.action_rate_l2(q_star, prev), torch.tensor([-12.0, -0.25]))
+
+
+def test_action_rate_term_reads_the_joint_targets():
+    ctx = dataclasses.replace(make_ctx(), joint_target=torch.full((3, J), 0.1))
+    terms = R.reward_terms(make_state(), ctx, RewardConfig())
+    torch.testing.assert_close(terms["action_rate"], torch.full((3,), -12 * 0.01))
 
 
 def test_horizontal_drift_l2():
@@ -125,22 +143,3 @@ def test_weights_come_from_config():
     cfg = RewardConfig(orientation=0.0, feet_contact=1.0)
     w = R.reward_weights(cfg)
     assert w["orientation"] == 0.0 and w["feet_contact"] == 1.0 and w["base_height"] == 40.0
-
-
-def test_standing_height_on_slopes():
-    from selfright.env.rewards import standing_height
-
-    z = standing_height(0.35, torch.tensor([0.0, 100.0 * math.tan(math.radians(20.0)), 100.0]))
-    assert z[0].item() == pytest.approx(0.35)
-    assert z[1].item() == pytest.approx(0.35 / math.cos(math.radians(20.0)), rel=1e-5)
-    assert z[2].item() == pytest.approx(0.35 * math.sqrt(2.0), rel=1e-5)
-
-
-
-
-
-
-
-
-
-

@@ -147,6 +147,23 @@ def test_resume_refuses_a_different_run(reference, tmp_path):
         run(tmp_path, seed=5)
 
 
+def test_results_record_the_benchmark_version_and_refuse_another(tmp_path):
+    from selfright.config import BENCHMARK_VERSION
+
+    run(tmp_path, episodes=1)
+    for name in ("run.json", "summary.json"):
+        assert json.loads((tmp_path / name).read_text())["benchmark_version"] == BENCHMARK_VERSION == 1
+    path = tmp_path / "run.json"
+    old = json.loads(path.read_text())
+    for version in (None, 2):  # a folder without a version holds version 0
+        rec = {k: v for k, v in old.items() if k != "benchmark_version"}
+        path.write_text(json.dumps(rec if version is None else {**rec, "benchmark_version": version}))
+        with pytest.raises(ResultsError) as e:
+            run(tmp_path, episodes=1)
+        assert str(e.value) == (f"{tmp_path} holds results of benchmark version {version or 0}; this is version 1: "
+                                "use a fresh --out directory")
+
+
 def test_wilson_interval_known_values():
     lo, hi = wilson_interval(8, 10)
     assert lo == pytest.approx(0.4902, abs=1e-3) and hi == pytest.approx(0.9433, abs=1e-3)

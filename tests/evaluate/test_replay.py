@@ -19,31 +19,31 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.plots.trace import plot_trace
 from selfright.policies.registry import make_policy
 
-CFG = BenchmarkConfig(goal=GoalConfig(episode_s=2.5, hold_s=0.5))  # short enough that `flat` misses some
+CFG = BenchmarkConfig(goal=GoalConfig(episode_s=2.5, hold_s=0.5))  # short enough that `rough` misses some on the plane
 
 
 @pytest.fixture(scope="module")
 def evaluated(tmp_path_factory):
     out = tmp_path_factory.mktemp("eval")
-    evaluate_grid(make_policy("flat", CFG), policy_name="flat", grid="flat", episodes=6, seed=0, out_dir=out, cfg=CFG,
+    evaluate_grid(make_policy("rough", CFG), policy_name="rough", grid="flat", episodes=6, seed=0, out_dir=out, cfg=CFG,
                   progress=False)
     with open(out / "episodes.csv", newline="") as f:
-        return list(csv.DictReader(f))  # 6 episodes: successes and (episodes 1 and 5) failures, to replay both
+        return list(csv.DictReader(f))  # 6 episodes: successes and failures, to replay both
 
 
 @pytest.fixture(scope="module")
 def replayed(tmp_path_factory):
     out = tmp_path_factory.mktemp("replay")
     cell = select_cell("flat", CFG, None, None)
-    r = replay_episode(make_policy("flat", CFG), CFG, cell, 2, seed=0)
-    write_replay(out, r, {"policy": "flat", "grid": "flat", "seed": 0}, CFG)
+    r = replay_episode(make_policy("rough", CFG), CFG, cell, 2, seed=0)
+    write_replay(out, r, {"policy": "rough", "grid": "flat", "seed": 0}, CFG)
     plot_trace(out)
     return out, r
 
 
 def test_replay_reproduces_each_evaluated_episode(evaluated):
     cell = select_cell("flat", CFG, None, None)
-    policy = make_policy("flat", CFG)
+    policy = make_policy("rough", CFG)
     assert any(r["success"] == "1" for r in evaluated) and any(r["success"] == "0" for r in evaluated)
     for row in evaluated:
         r = replay_episode(policy, CFG, cell, int(row["episode"]), seed=0)
@@ -69,6 +69,11 @@ def test_replay_files(replayed):
     assert rows[0]["t_s"] == "0" and rows[0]["in_goal"] == "0"
     meta = json.loads((out / "replay.json").read_text())
     assert meta["episode"] == 2 and meta["goal_height_m"] == pytest.approx(0.32)
+    assert meta["benchmark_version"] == 1 and meta["goal_height_ref"] == "feet"
+    if r.success:  # the goal set reads the height over the feet, so the whole hold clears the bar
+        assert meta["hold_min_height_over_feet_m"] >= meta["goal_height_m"]
+    else:
+        assert meta["hold_min_height_over_feet_m"] is None
     assert (out / "trace.png").stat().st_size > 10_000 and (out / "scene.xml").exists()
 
 

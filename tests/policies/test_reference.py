@@ -32,9 +32,9 @@ def _linear_policy(reference: str) -> CallablePolicy:
 def _final_state(reference: str, policy) -> np.ndarray:
     cfg = dataclasses.replace(CFG, action=ActionConfig(reference=reference))
     env = RecoveryEnv(cfg, make_training_worlds("flat", cfg, seed=0), num_envs=1, threads=1)
-    # A fall whose first 0.4 s is not chaotic: other falls (fall seed 3), and this one later,
-    # amplify the 1e-8 rounding of the shifted actions into different contacts.
-    env.reset(np.arange(1), np.zeros(1, dtype=np.int64), [np.random.default_rng(4)])
+    # A fall whose first 0.4 s is not chaotic: most other falls (fall seeds 0-6), and this one
+    # later, amplify the 1e-8 rounding of the shifted actions into different contacts.
+    env.reset(np.arange(1), np.zeros(1, dtype=np.int64), [np.random.default_rng(7)])
     policy.reset(np.arange(1))
     for _ in range(20):
         env.step(policy.act(env.observe(), np.arange(1), ["flat"]))

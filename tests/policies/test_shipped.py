@@ -110,18 +110,19 @@ def test_a_remeasured_card_states_the_new_number_and_keeps_the_old():
     assert "--seed 3`" in new and new.startswith(card.split(SUCCESS_PREFIX)[0])
     with pytest.raises(ValueError, match="not the shipped"):
         remeasured_card(card, "flat", {**summary, "policy": "rough"}, "a change")
-    dc = remeasured_card(card, "flat", {**summary, "config": {"robot": {"motor": "dcmotor"}}}, "a change")
-    assert "--seed 3 --motor dcmotor`" in dc
+    ideal = remeasured_card(card, "flat", {**summary, "config": {"robot": {"motor": "ideal"}}}, "a change")
+    assert "--seed 3 --motor ideal`" in ideal
 
 
 def test_a_card_names_a_motor_model_other_than_the_default():
     from selfright.train.ship import motor_lines
 
-    assert motor_lines({}) == [] and motor_lines({"benchmark_config": {"robot": {"motor": "ideal"}}}) == []
-    line = motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor"}}})[0]
-    assert "--motor dcmotor" in line and "torque-speed envelope" in line
+    assert motor_lines({}) == [] and motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor"}}}) == []
+    line = motor_lines({"benchmark_config": {"robot": {"motor": "ideal"}}})[0]
+    assert "`--motor ideal`" in line
     fast = motor_lines({"benchmark_config": {"robot": {"motor": "dcmotor", "motor_speed_rad_s": 30.0}}})[0]
-    assert "--motor dcmotor" in fast and "30 rad/s" in fast
+    assert "`dcmotor`" in fast and "30 rad/s" in fast
+    assert "approximation" in motor_lines({"benchmark_config": {"robot": {"motor": "envelope"}}})[0]
 
 
 def test_a_card_names_joint_stops_softer_than_the_benchmarks():
@@ -165,3 +166,21 @@ def test_a_card_names_the_machines_that_trained_its_checkpoint(tmp_path: Path):
     torch.save({"infos": {}}, tmp_path / "model_1199.pt")
     latest = checkpoint_meta(tmp_path)
     assert latest["command_lines"] == ["a", "b", "c"] and latest["device"] == "gpu 5; then gpu 8; then laptop"
+
+
+def test_a_card_states_the_benchmark_version():
+    from selfright.train.ship import VERSION_PREFIX, remeasured_card, version_line
+
+    assert version_line({"benchmark_version": 1}, {"benchmark_version": 1}) == f"{VERSION_PREFIX}: 1"
+    assert version_line({}, {"benchmark_version": 1}) == f"{VERSION_PREFIX}: 1 (trained under version 0)"
+    card = (CHECKPOINT_DIR / "flat.md").read_text()
+    overall = {"n": 64, "successes": 32, "success_rate": 0.5, "success_ci95": [0.38, 0.62], "ttr_mean_s": 2.0, "dtr_mean_m": None}
+    summary = {"benchmark_version": 1, "policy": "flat", "grid": "flat", "episodes_per_cell": 64, "seed": 3, "overall": overall}
+    once = remeasured_card(card, "flat", summary, "a change")
+    twice = remeasured_card(once, "flat", summary, "another change")
+    for text in (once, twice):
+        lines = [x for x in text.splitlines() if x.startswith(VERSION_PREFIX)]
+        want = [f"{VERSION_PREFIX}: 1"] if VERSION_PREFIX in card and "trained under" not in card else None
+        assert len(lines) == 1 and (want is None or lines == want)
+    if VERSION_PREFIX not in card:  # a card written without a version: trained under version 0
+        assert f"{VERSION_PREFIX}: 1 (trained under version 0)" in twice

@@ -186,11 +186,12 @@ def test_a_faster_dc_motor_turns_faster_and_a_speed_needs_dc_motors():
     fast = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor="dcmotor", motor_speed_rad_s=40.0))
     top = _top_swing_speed(build_world(make_cell(0, 0, fast.terrain), fast, ContextConfig(), 0).model)
     assert ROBOT.rated_joint_speed + 5 < top < 40.0, top
-    bad = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor_speed_rad_s=40.0))
+    bad = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor="ideal", motor_speed_rad_s=40.0))
     with pytest.raises(ValueError, match="needs motor='dcmotor'"):
         build_world(make_cell(0, 0, bad.terrain), bad, ContextConfig(), 0)
 
 
 def _ideal():
     cfg = BenchmarkConfig()
+    cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor="ideal"))
     return build_world(make_cell(0, 0, cfg.terrain), cfg, ContextConfig(), 0)

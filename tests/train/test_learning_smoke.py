@@ -266,27 +266,27 @@ def test_policy_records_its_action_mapping(tmp_path: Path):
         assert load_policy_file(p).action_mapping == ("current", 0.5)
 
 
-def test_policy_records_its_motor_and_runs_in_the_dc_envelope_on_ideal_servos(tmp_path: Path):
-    """A policy trained with DC motors says so, in its file and in ONNX; on the ideal servos
-    it is wrapped in the DC torque envelope (unless asked not to), on DC motors it is not."""
-    from selfright.policies.registry import make_policy
-    from selfright.policies.torque_envelope import TorqueEnvelope
+def test_policy_records_its_motor(tmp_path: Path):
+    """A policy says which motors it trained with, in its checkpoint, its policy file and its
+    ONNX metadata."""
+    import onnxruntime as ort
 
-    dc = dataclasses.replace(CFG, robot=dataclasses.replace(CFG.robot, motor="dcmotor"))
+    from selfright.policies.learned import load_torch_actor
+
+    fast = dataclasses.replace(CFG, robot=dataclasses.replace(CFG.robot, motor="dcmotor", motor_speed_rad_s=30.0))
     out = tmp_path / "dc"
-    run(spec(out, bench=dc))
-    assert make_policy(str(out), dc).trained_motor == ("dcmotor", 0.0)
-    assert not isinstance(make_policy(str(out), dc), TorqueEnvelope)
-    assert isinstance(make_policy(str(out), CFG), TorqueEnvelope)
-    assert not isinstance(make_policy(str(out), CFG, envelope=False), TorqueEnvelope)
+    run(spec(out, bench=fast))
     onnx_path, policy_path = export(ExportArgs(checkpoint=out, onnx=tmp_path / "dc.onnx"))
-    for p in (onnx_path, policy_path):
-        assert load_policy_file(p).trained_motor == ("dcmotor", 0.0)
-    # the checkpoint itself records its motor: copied out of its run folder it still runs as trained
+    meta = load_torch_actor(policy_path).meta
+    assert (meta.motor, meta.motor_speed_rad_s) == ("dcmotor", 30.0)
+    props = ort.InferenceSession(str(onnx_path)).get_modelmeta().custom_metadata_map
+    assert (json.loads(props["motor"]), json.loads(props["motor_speed_rad_s"])) == ("dcmotor", 30.0)
+    # the checkpoint itself records its motor: copied out of its run folder it still says so
     stray = tmp_path / "elsewhere" / "model_0.pt"
     stray.parent.mkdir()
     shutil.copy(out / "model_0.pt", stray)
-    assert load_policy_file(stray).trained_motor == ("dcmotor", 0.0)
+    meta = load_torch_actor(stray).meta
+    assert (meta.motor, meta.motor_speed_rad_s) == ("dcmotor", 30.0)
 
 
 def test_ship_checks_notes_before_writing(tmp_path: Path):

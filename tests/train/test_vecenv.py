@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import dataclasses
 import math
 from types import SimpleNamespace
@@ -13,7 +15,7 @@ import torch
 
 from selfright.config import BenchmarkConfig
 from selfright.env.rewards import RewardConfig
-from selfright.env.randomization import ModelRandomizer, sample_factors
+from selfright.env.randomization import DCMOTOR_KD, DCMOTOR_KP, ModelRandomizer, sample_factors
 from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
 from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
@@ -49,9 +51,21 @@ def test_randomizer_writes_copies(flat_worlds):
     trunk = base.body("trunk").id
     assert m.body_mass[trunk] == pytest.approx(1.1 * base.body_mass[trunk])
     assert m.body_mass[0] == base.body_mass[0]  # world body is not the robot
-    np.testing.assert_allclose(m.actuator_gainprm[:12, 0], 0.8 * CFG.robot.kp)
-    np.testing.assert_allclose(m.actuator_biasprm[:12, 1], -0.8 * CFG.robot.kp)
-    np.testing.assert_allclose(m.actuator_biasprm[:12, 2], -1.2 * CFG.robot.kd)
+    assert r.dcmotor  # the default motors: the DC controller's torque-space gains are scaled
+    np.testing.assert_allclose(m.actuator_gainprm[:12, DCMOTOR_KP], 0.8 * base.actuator_gainprm[:12, DCMOTOR_KP])
+    np.testing.assert_allclose(m.actuator_gainprm[:12, DCMOTOR_KD], 1.2 * base.actuator_gainprm[:12, DCMOTOR_KD])
+    np.testing.assert_allclose(base.actuator_gainprm[:12, DCMOTOR_KP], CFG.robot.kp, rtol=1e-6)
+
+
+def test_randomizer_scales_ideal_servo_gains():
+    cfg = BenchmarkConfig(robot=replace(BenchmarkConfig().robot, motor="ideal"))
+    base = make_training_worlds("flat", cfg, seed=0)[0].model
+    r = ModelRandomizer(base, get_robot(cfg.robot.name))
+    m = r.apply(base, friction=0.5, mass=1.1, kp=0.8, kd=1.2)
+    assert not r.dcmotor
+    np.testing.assert_allclose(m.actuator_gainprm[:12, 0], 0.8 * cfg.robot.kp)
+    np.testing.assert_allclose(m.actuator_biasprm[:12, 1], -0.8 * cfg.robot.kp)
+    np.testing.assert_allclose(m.actuator_biasprm[:12, 2], -1.2 * cfg.robot.kd)
 
 
 
@@ -113,7 +127,7 @@ def test_low_stance_streak_ends_only_an_unbroken_crouch(flat_worlds):
 
     def state(h0: float):
         heights = torch.tensor([h0, bar + 0.03, bar - 0.02, bar - 0.02])
-        return SimpleNamespace(roll=tilted, pitch=torch.zeros(4), feet_contact=feet, height=heights)
+        return SimpleNamespace(roll=tilted, pitch=torch.zeros(4), feet_contact=feet, height_over_feet=heights)
 
     out = torch.zeros(4, dtype=torch.bool)
     ended = [env._low_stance_ended(state(h), out).tolist() for h in (bar - 0.02, bar - 0.02, bar + 0.01, bar - 0.02, bar - 0.02)]
@@ -137,7 +151,7 @@ def test_leaky_low_stance_count_outlasts_a_lifted_foot(flat_worlds):
         feet = torch.zeros(3, 4, dtype=torch.bool)
         for i, k in enumerate(feet_down):
             feet[i, :k] = True
-        st = SimpleNamespace(roll=zero, pitch=zero, feet_contact=feet, height=torch.tensor(heights))
+        st = SimpleNamespace(roll=zero, pitch=zero, feet_contact=feet, height_over_feet=torch.tensor(heights))
         return env._low_stance_ended(st, torch.tensor(in_goal)).tolist()
 
     low = bar - 0.02
@@ -381,3 +395,24 @@ def test_training_contexts():
         training_cells("moon", CFG)
 
 
+
+
+def test_action_rate_reads_the_joint_targets(flat_worlds):
+    """Table I's action rate: −‖q*_t − q*_{t−1}‖² on the PD targets applied (after the action
+    mapping and the joint-range clip), from the episode's joint angles at its first step."""
+    env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=2, seed=1)
+    inner = env.env
+    start = inner.joint_target.clone()
+    torch.testing.assert_close(start, torch.from_numpy(inner.state[:, inner.sl.qpos_joints]).float())
+    w, dt = TrainConfig().reward.action_rate, env.dt
+    with torch.inference_mode():
+        for actions in (torch.full((2, 12), 0.3), torch.full((2, 12), 50.0)):  # the second is clipped
+            prev = inner.joint_target.clone()
+            _, _, dones, extras = env.step(actions)
+            assert not dones.any()
+            now = inner.joint_target
+            torch.testing.assert_close(now, torch.from_numpy(inner.last_ctrl).float())
+            want = -(w * dt) * (now - prev).square().sum(dim=-1).mean()
+            torch.testing.assert_close(extras["log"]["Reward/action_rate"], want)
+    assert torch.all(inner.joint_target <= torch.from_numpy(inner.robot.joint_high).float() + 1e-6)
+    env.close()

@@ -7,6 +7,13 @@ import math
 import torch
 
 from selfright.config import GoalConfig
+from selfright.env.robot_state import RobotState
+
+
+def body_height(rs: RobotState, cfg: GoalConfig) -> torch.Tensor:
+    """(n,) the goal set's body height (m): ``RobotState.height_over_feet``, or with
+    ``cfg.height_ref = "terrain"`` (for comparison) ``RobotState.height_over_terrain``."""
+    return rs.height_over_terrain if cfg.height_ref == "terrain" else rs.height_over_feet
 
 
 def goal_height_m(cfg: GoalConfig, leg_length_m: float) -> float:
@@ -33,12 +40,17 @@ def in_goal_set(
     Args:
         roll, pitch: (n,) trunk roll and pitch relative to gravity (rad).
         feet_contact: (n, 4) bool, each foot touching the ground.
-        height: (n,) trunk height above the ground beneath it (m).
+        height: (n,) body height (m), ``body_height``.
 
     Returns:
         (n,) bool: |roll| ≤ tilt, |pitch| ≤ tilt, all feet down, height ≥ fraction × leg length.
     """
     return upright(roll, pitch, cfg) & feet_contact.all(dim=-1) & (height >= goal_height_m(cfg, leg_length_m))
+
+
+def robot_in_goal_set(rs: RobotState, cfg: GoalConfig, leg_length_m: float) -> torch.Tensor:
+    """(n,) bool: ``in_goal_set`` of the robot states ``rs`` (body height per ``cfg.height_ref``)."""
+    return in_goal_set(rs.roll, rs.pitch, rs.feet_contact, body_height(rs, cfg), cfg, leg_length_m)
 
 
 class GoalTracker:

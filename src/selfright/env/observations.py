@@ -3,8 +3,8 @@
 student (what a real A1 senses): projected gravity (3), IMU angular velocity (3), joint
     angles relative to the nominal pose (J), joint velocities (J), previous action (J).
 teacher: student + privileged context: slope angle (1) and uphill direction in the body
-    frame (3), ground friction (1), trunk linear velocity in the body frame (3), trunk
-    height above the ground (1), height scan around the trunk (S), and the randomised
+    frame (3), ground friction (1), trunk linear velocity in the body frame (3), body
+    height over the feet (1, ``RobotState.height_over_feet``), height scan around the trunk (S), and the randomised
     mass / Kp / Kd factors (3).
 """
 
@@ -122,7 +122,7 @@ def privileged_obs(
     lin_vel_body = torch.einsum("nji,nj->ni", rs.rot, rs.lin_vel)
     scan_rel = (rs.pos[:, 2:3] - scan_z.to(torch.float64)).float()
     return torch.cat(
-        [angle[:, None], uphill_body, friction[:, None], lin_vel_body, rs.height[:, None], scan_rel, factors],
+        [angle[:, None], uphill_body, friction[:, None], lin_vel_body, rs.height_over_feet[:, None], scan_rel, factors],
         dim=-1,
     )
 

@@ -16,13 +16,12 @@ import torch
 
 from selfright.config import BenchmarkConfig
 from selfright.env.fall import SelfCollisionChecker, initial_qpos
-from selfright.env.goal import GoalTracker, in_goal_set
+from selfright.env.goal import GoalTracker, robot_in_goal_set
 from selfright.env.observations import privileged_obs, scan_points, student_obs
 from selfright.env.robot_state import RobotState, decode
 from selfright.env.world import World
 from selfright.robots import RobotSpec, get_robot
 from selfright.sim.batch import BatchStepper, sensor_layout, state_layout
-from selfright.sim.dc_envelope import envelope_held_targets, envelope_speed
 from selfright.terrain.heightfield import sample_heights
 
 EDGE_MARGIN_M = 0.5
@@ -79,6 +78,8 @@ class RecoveryEnv:
         self.stepper = BatchStepper(template, cfg.sim.threads if threads is None else threads)
         self.sl = state_layout(template)
         self.so = sensor_layout(template, self.robot)
+        self.foot_radius = np.array([template.geom_size[template.geom(g).id, 0] for g in self.robot.foot_geoms])
+        """(F,) radius of each foot sphere (m)."""
         self.checker = SelfCollisionChecker(self.robot)
         self.heights = np.stack([w.tile.heights for w in worlds])
         self.res = cfg.terrain.resolution_m
@@ -91,14 +92,15 @@ class RecoveryEnv:
         """(J,) joint angles of action 0, or None (``current``: the angles at each step)."""
         self._low = self.robot.joint_low
         self._high = self.robot.joint_high
-        self._envelope = _envelope_args(cfg, self.robot) if cfg.robot.motor == "envelope" else None
-        """(kp, kd, stall torque, no-load speed) of ``RobotConfig.motor = "envelope"``, or None."""
         nj = self.robot.num_joints
         self.world_idx = np.zeros(num_envs, dtype=np.int64)
         self.models: list[mujoco.MjModel] = [template] * num_envs
         self.state = np.zeros((num_envs, self.sl.size))
         self.sens = np.zeros((num_envs, template.nsensordata))
         self.prev_action = torch.zeros(num_envs, nj)
+        self.joint_target = torch.zeros(num_envs, nj)
+        """(n, J) PD joint targets q* of each slot's latest control step (rad); at an episode's
+        start, its joint angles (what the settle's PD servos held)."""
         self.step_count = torch.zeros(num_envs, dtype=torch.long)
         self.start_xy = torch.zeros(num_envs, 2, dtype=torch.float64)
         self.energy = torch.zeros(num_envs, dtype=torch.float64)
@@ -173,6 +175,7 @@ class RecoveryEnv:
         self.diverged[t] = torch.from_numpy(starts.diverged)
         self.start_xy[t] = torch.from_numpy(starts.state[:, 1:3].copy())
         self.prev_action[t] = 0.0
+        self.joint_target[t] = torch.from_numpy(starts.state[:, self.sl.qpos_joints].astype(np.float32))
         self.step_count[t] = 0
         self.energy[t] = 0.0
         self.peak_ang_speed[t] = 0.0
@@ -187,26 +190,9 @@ class RecoveryEnv:
         """(k, F, 3) world positions of the feet of slots ``ids`` (their geoms' centres)."""
         return self.sens[ids, self.so.foot_pos].reshape(len(ids), -1, 3)
 
-    def ground_under_feet(self, ids: np.ndarray, feet: np.ndarray | None = None) -> np.ndarray:
-        """(k, F) ground height under each foot of slots ``ids`` (``feet``: their ``feet_xyz``, if
-        already read)."""
-        xy = (self.feet_xyz(ids) if feet is None else feet)[:, :, :2]
-        f = xy.shape[1]
-        return self.ground_height(np.repeat(ids, f), xy.reshape(-1, 2)).reshape(-1, f)
-
-    def feet_ground_height(self, ids: np.ndarray) -> np.ndarray:
-        """(k,) mean ground height under the feet of slots ``ids``. On rough tiles it differs
-        from the ground under the trunk, which is what the goal set reads."""
-        return self.ground_under_feet(ids).mean(axis=1)
-
-    def height_over_feet(self, ids: np.ndarray) -> np.ndarray:
-        """(k,) trunk height above the mean ground under the feet of slots ``ids`` (the goal set
-        reads it above the ground beneath the trunk: ``RobotState.height``)."""
-        return self.state[ids, self.sl.pos][:, 2] - self.feet_ground_height(ids)
-
     def robot_state(self, ids: np.ndarray) -> RobotState:
         st = self.state[ids]
-        return decode(st, self.sens[ids], self.ground_height(ids, st[:, 1:3]), self.sl, self.so)
+        return decode(st, self.sens[ids], self.ground_height(ids, st[:, 1:3]), self.sl, self.so, self.foot_radius)
 
     def _clip(self, actions: torch.Tensor) -> torch.Tensor:
         return actions.detach().float().clamp(-self.cfg.action.clip, self.cfg.action.clip)
@@ -217,14 +203,7 @@ class RecoveryEnv:
         ``current`` the angles at the start of the step)."""
         ref = state[:, self.sl.qpos_joints] if self._ref_pose is None else self._ref_pose
         scale = self.cfg.action.scale_rad
-        target = np.clip(ref + scale * clipped.double().numpy(), self._low, self._high)
-        if self._envelope is None:
-            return target
-        # As selfright.policies.torque_envelope does it: move the target into the DC envelope,
-        # then back through the action clip and the joint range.
-        q, qd = state[:, self.sl.qpos_joints], state[:, self.sl.qvel_joints]
-        return envelope_held_targets(target, ref, q, qd, scale, self.cfg.action.clip, self._low, self._high,
-                                     *self._envelope)
+        return np.clip(ref + scale * clipped.double().numpy(), self._low, self._high)
 
     def step(self, actions: torch.Tensor, ids: np.ndarray | None = None) -> StepOutput:
         """Apply ``actions`` (k, J) to slots ``ids`` (default: all) for one control step."""
@@ -261,10 +240,11 @@ class RecoveryEnv:
         self.diverged[t] |= div
         self.step_count[t] += 1
         self.prev_action[t] = clipped
+        self.joint_target[t] = torch.from_numpy(ctrl.astype(np.float32))
 
         rs = self.robot_state(ids)
         self._last = (ids, rs)
-        goal = in_goal_set(rs.roll, rs.pitch, rs.feet_contact, rs.height, self.cfg.goal, self.robot.leg_length_m)
+        goal = robot_in_goal_set(rs, self.cfg.goal, self.robot.leg_length_m)
         goal &= ~self.diverged[t]
         succeeded = self.goal.update(t, goal, self.step_count[t], rs.pos[:, :2])
         off_tile = (rs.pos[:, :2].abs() > self.half_size - EDGE_MARGIN_M).any(dim=1)
@@ -307,9 +287,3 @@ class RecoveryEnv:
     def close(self) -> None:
         self.stepper.close()
 
-
-def _envelope_args(cfg: BenchmarkConfig, robot: RobotSpec) -> tuple[float, float, float, float]:
-    """(kp, kd, stall torque, no-load speed) of the DC envelope the env holds targets to: the
-    nominal PD gains (a deployed limiter does not know randomised ones) and the motor speed."""
-    speed = envelope_speed(cfg.robot.motor_speed_rad_s, robot.rated_joint_speed, robot.name)
-    return cfg.robot.kp, cfg.robot.kd, float(robot.torque_limit), speed

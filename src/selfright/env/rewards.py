@@ -1,7 +1,7 @@
 """The seed's reward (Table I) as pure, unweighted terms.
 
-Each term maps the robot state after a control step (and, where needed, the actions or the
-episode's start point) to a tensor of shape (n,). Weights live only in
+Each term maps the robot state after a control step (and, where needed, the joint targets or
+the episode's start point) to a tensor of shape (n,). Weights live only in
 ``RewardConfig``; ``weighted_rewards`` forms w_i · r_i · dt per term
 and their sum, r_total = Σ_i w_i · r_i · dt.
 """
@@ -26,11 +26,11 @@ class RewardConfig:
     torques: float = 0.001
     """Weight of −‖τ‖², τ the motor torques (per N²·m²·s)."""
     base_height: float = 40.0
-    """Weight of −(z* − z)², z the trunk height above the ground beneath it (per m²·s)."""
+    """Weight of −(z* − z)², z the body height over the feet (``RobotState.height_over_feet``) (per m²·s)."""
     collisions: float = 1.0
     """Weight of −n_c, the number of non-foot bodies touching the ground (per s)."""
     action_rate: float = 0.01
-    """Weight of −‖a_t − a_{t−1}‖², a the (clipped) policy action (per s)."""
+    """Weight of −‖q*_t − q*_{t−1}‖², q* the PD joint targets (rad) (per rad²·s)."""
     horizontal_drift: float = 0.01
     """Weight of −‖xy_start − xy‖², trunk x-y displacement since the policy started (per m²·s)."""
     joint_limits: float = 10.0
@@ -40,10 +40,11 @@ class RewardConfig:
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None
-    """Standing height z* of the base-height term on level ground (m); ``None`` = the robot's
-    standing height (``RobotSpec.stand_height_m``, 0.35 m on the A1). On a slope of angle α the
-    target is this / cos α, the vertical height of a robot standing square to the slope (z is
-    measured vertically above the ground beneath). The seed leaves z* unspecified; the default
+    """Standing height z* of the base-height term, a height over the feet (m), the same on every
+    terrain; ``None`` = the robot's standing height (``RobotSpec.stand_height_m``, 0.35 m on the
+    A1). The feet follow the slope, so z* needs no slope correction: a robot square to a 20°
+    slope stands 0.35 m × cos 20° = 0.33 m over its feet, and z* asks it to bring its legs
+    toward the vertical, away from the goal set's bar. The seed leaves z* unspecified; the default
     targets the height the robot has when standing in the goal set, not the goal's lower bar
     (0.8 × leg length = 0.32 m): with z* on the bar, nothing in Table I rewards standing above
     it, and policies trained that way stood at 0.30–0.32 m, half outside the goal set."""
@@ -67,9 +68,9 @@ def torque_l2(rs: RobotState) -> torch.Tensor:
 
 
 def base_height_l2(rs: RobotState, target_m: float | torch.Tensor) -> torch.Tensor:
-    """(n,) −(z* − z)², z the trunk height above the ground beneath it and z* a scalar or
-    (n,) target (m²)."""
-    return -(torch.as_tensor(target_m, dtype=torch.float32) - rs.height.float()).square()
+    """(n,) −(z* − z)², z the body height over the feet (``RobotState.height_over_feet``) and
+    z* a scalar or (n,) target (m²)."""
+    return -(torch.as_tensor(target_m, dtype=torch.float32) - rs.height_over_feet.float()).square()
 
 
 def body_collisions(rs: RobotState) -> torch.Tensor:
@@ -77,9 +78,10 @@ def body_collisions(rs: RobotState) -> torch.Tensor:
     return -rs.body_contacts.float()
 
 
-def action_rate_l2(action: torch.Tensor, prev_action: torch.Tensor) -> torch.Tensor:
-    """(n,) −‖a_t − a_{t−1}‖² over the (n, J) actions of this and the previous control step."""
-    return -(action.float() - prev_action.float()).square().sum(dim=-1)
+def action_rate_l2(joint_target: torch.Tensor, prev_joint_target: torch.Tensor) -> torch.Tensor:
+    """(n,) −‖q*_t − q*_{t−1}‖² (rad²) over the (n, J) PD joint targets of this and the previous
+    control step (after the action mapping and the clip to the joint range), as Table I writes it."""
+    return -(joint_target.float() - prev_joint_target.float()).square().sum(dim=-1)
 
 
 def horizontal_drift_l2(rs: RobotState, start_xy: torch.Tensor) -> torch.Tensor:
@@ -106,23 +108,16 @@ def all_feet_contact(rs: RobotState) -> torch.Tensor:
     return rs.feet_contact.all(dim=-1).float()
 
 
-def standing_height(stand_height_m: float, slope_pct: torch.Tensor) -> torch.Tensor:
-    """(n,) z* on tiles of grade ``slope_pct`` (n,) (%): the trunk height, measured vertically
-    above the ground beneath as z is, of a robot standing square to the slope with its trunk
-    ``stand_height_m`` from the ground: stand_height / cos(slope angle). 0.35 m on the
-    plane, 0.372 m on the 20° incline."""
-    return stand_height_m / torch.cos(torch.atan(slope_pct.float() / 100.0))
-
-
 # ----------------------------------------------------------------------------- sum
 @dataclass(frozen=True)
 class RewardContext:
     """Per-step inputs of the reward beyond the robot state."""
 
-    action: torch.Tensor
-    """(n, J) clipped action of this control step."""
-    prev_action: torch.Tensor
-    """(n, J) clipped action of the previous control step (zeros at an episode's start)."""
+    joint_target: torch.Tensor
+    """(n, J) PD joint targets q* of this control step (rad, ``RecoveryEnv.joint_target``)."""
+    prev_joint_target: torch.Tensor
+    """(n, J) PD joint targets of the previous control step (rad; at an episode's start, its
+    joint angles)."""
     start_xy: torch.Tensor
     """(n, 2) trunk x-y when the policy took over (m)."""
     joint_low: torch.Tensor
@@ -130,7 +125,7 @@ class RewardContext:
     joint_high: torch.Tensor
     """(J,) upper joint limits (rad)."""
     target_height_m: float | torch.Tensor
-    """Standing height z* (m), a scalar or (n,) per env (see ``standing_height``)."""
+    """Standing height z* over the feet (m), a scalar or (n,) per env."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
@@ -141,7 +136,7 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         "torques": torque_l2(rs),
         "base_height": base_height_l2(rs, ctx.target_height_m),
         "collisions": body_collisions(rs),
-        "action_rate": action_rate_l2(ctx.action, ctx.prev_action),
+        "action_rate": action_rate_l2(ctx.joint_target, ctx.prev_joint_target),
         "horizontal_drift": horizontal_drift_l2(rs, ctx.start_xy),
         "joint_limits": joint_limit_violation(rs, ctx.joint_low, ctx.joint_high),
         "feet_contact": all_feet_contact(rs),

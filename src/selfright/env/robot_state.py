@@ -36,11 +36,26 @@ class RobotState:
     """(n,) number of non-foot bodies touching the ground."""
     ground_z: torch.Tensor
     """(n,) ground height under the trunk (m)."""
+    feet_pos: torch.Tensor
+    """(n, F, 3) world positions of the foot spheres' centres (m), float64. Read by MuJoCo
+    sensors, which take them at the start of the last physics step of the control step (5 ms
+    before ``pos``; millimetres apart at most)."""
+    foot_radius: torch.Tensor
+    """(F,) radius of each foot sphere (m), float64."""
 
     @property
-    def height(self) -> torch.Tensor:
-        """(n,) trunk height above the ground beneath it (m)."""
+    def height_over_terrain(self) -> torch.Tensor:
+        """(n,) trunk origin's height above the ground beneath it (m): the goal set's height
+        with ``GoalConfig.height_ref = "terrain"`` (for comparison)."""
         return (self.pos[:, 2] - self.ground_z.to(torch.float64)).float()
+
+    @property
+    def height_over_feet(self) -> torch.Tensor:
+        """(n,) trunk origin's height above the mean of the four feet's lowest points (foot
+        centre minus radius), along gravity (world −z) (m): the body height of the goal set
+        (``GoalConfig.height_ref = "feet"``), the reward, the teacher and the traces."""
+        lowest = self.feet_pos[:, :, 2].to(torch.float64) - self.foot_radius.to(torch.float64)
+        return (self.pos[:, 2] - lowest.mean(dim=1)).float()
 
     @property
     def projected_gravity(self) -> torch.Tensor:
@@ -78,8 +93,11 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     return m.reshape(-1, 3, 3)
 
 
-def decode(state: np.ndarray, sens: np.ndarray, ground_z: np.ndarray, sl: StateLayout, so: SensorLayout) -> RobotState:
-    """Build a RobotState from (n, nstate) states and (n, nsensordata) sensor readings."""
+def decode(
+    state: np.ndarray, sens: np.ndarray, ground_z: np.ndarray, sl: StateLayout, so: SensorLayout, foot_radius: np.ndarray
+) -> RobotState:
+    """Build a RobotState from (n, nstate) states, (n, nsensordata) sensor readings, (n,)
+    ground heights under the trunks and the (F,) foot radii (m)."""
     s32 = torch.from_numpy(state.astype(np.float32))  # one conversion; the fields are views
     return RobotState(
         pos=torch.from_numpy(np.ascontiguousarray(state[:, sl.pos])),
@@ -92,4 +110,6 @@ def decode(state: np.ndarray, sens: np.ndarray, ground_z: np.ndarray, sl: StateL
         feet_contact=torch.from_numpy(sens[:, so.foot_contact] > 0),
         body_contacts=torch.from_numpy((sens[:, so.body_contact] > 0).sum(axis=1).astype(np.float32)),
         ground_z=torch.from_numpy(np.asarray(ground_z, dtype=np.float64)),
+        feet_pos=torch.from_numpy(np.ascontiguousarray(sens[:, so.foot_pos]).reshape(len(sens), -1, 3)),
+        foot_radius=torch.from_numpy(np.asarray(foot_radius, dtype=np.float64)),
     )

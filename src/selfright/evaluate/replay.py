@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.goal import goal_height_m, in_goal_set
+from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, to_dict
+from selfright.env.goal import goal_height_m, robot_in_goal_set
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.robot_state import RobotState
 from selfright.env.world import build_world
@@ -31,10 +31,12 @@ from selfright.policies.base import Policy
 from selfright.terrain import Cell, grid_cells
 
 TRACE_COLUMNS = (
-    "t_s", "x_m", "y_m", "z_m", "height_m", "roll_deg", "pitch_deg", "feet_down", "body_contacts", "in_goal",
+    "t_s", "x_m", "y_m", "z_m", "height_over_feet_m", "height_over_terrain_m", "roll_deg", "pitch_deg",
+    "feet_down", "body_contacts", "in_goal",
 )
-"""Columns of ``trace.csv``: time since policy start, trunk position (world), trunk height above
-the ground beneath it, roll and pitch relative to gravity, feet and other bodies touching the
+"""Columns of ``trace.csv``: time since policy start, trunk position (world), body height over the
+feet (the goal set's, ``RobotState.height_over_feet``) and, for comparison, over the ground
+beneath the trunk, roll and pitch relative to gravity, feet and other bodies touching the
 ground, and whether the state is in the goal set."""
 
 
@@ -55,7 +57,9 @@ class Replay:
     diverged: bool
     scene_xml: str
     goal_height_m: float
-    """The goal set's trunk-height bar (m)."""
+    """The goal set's body-height bar (m)."""
+    hold_min_height_over_feet_m: float | None
+    """Lowest body height over the feet through the successful hold (m); None: no success."""
 
 
 def select_cell(grid: str, cfg: BenchmarkConfig, slope_level: int | None, roughness_level: int | None) -> Cell:
@@ -78,7 +82,8 @@ def _trace_row(rs: RobotState, in_goal: torch.Tensor, t_s: float) -> dict[str, f
     pos = rs.pos[0].double().numpy()
     return {
         "t_s": t_s, "x_m": float(pos[0]), "y_m": float(pos[1]), "z_m": float(pos[2]),
-        "height_m": float(rs.height[0]), "roll_deg": math.degrees(float(rs.roll[0])),
+        "height_over_feet_m": float(rs.height_over_feet[0]),
+        "height_over_terrain_m": float(rs.height_over_terrain[0]), "roll_deg": math.degrees(float(rs.roll[0])),
         "pitch_deg": math.degrees(float(rs.pitch[0])), "feet_down": int(rs.feet_contact[0].sum()),
         "body_contacts": int(rs.body_contacts[0]), "in_goal": int(bool(in_goal[0])),
     }
@@ -97,7 +102,7 @@ def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: in
     try:
         def start() -> None:
             rs = env.robot_state(slot)
-            goal = in_goal_set(rs.roll, rs.pitch, rs.feet_contact, rs.height, cfg.goal, env.robot.leg_length_m)
+            goal = robot_in_goal_set(rs, cfg.goal, env.robot.leg_length_m)
             states.append(env.state[0].copy())
             rows.append(_trace_row(rs, goal, 0.0))
 
@@ -111,11 +116,13 @@ def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: in
         env.close()
     ok = bool(success[0])
     trace = {k: np.array([r[k] for r in rows]) for k in TRACE_COLUMNS}
+    hold = int(round(cfg.goal.hold_s / env.control_dt))  # a success ends its episode with its hold
+    hold_min = float(trace["height_over_feet_m"][-hold:].min()) if ok else None
     return Replay(
         cell=cell, episode=episode, episode_seed=ep_seed, states=np.stack(states), trace=trace,
         success=ok, ttr_s=float(m["ttr_s"][0]) if ok else None, dtr_m=float(m["dtr_m"][0]) if ok else None,
         diverged=bool(m["diverged"][0]), scene_xml=world.xml,
-        goal_height_m=goal_height_m(cfg.goal, env.robot.leg_length_m),
+        goal_height_m=goal_height_m(cfg.goal, env.robot.leg_length_m), hold_min_height_over_feet_m=hold_min,
     )
 
 
@@ -132,11 +139,12 @@ def write_replay(out_dir: Path, r: Replay, identity: dict[str, Any], cfg: Benchm
             w.writerow([_fmt(r.trace[k][i]) for k in TRACE_COLUMNS])
     c = r.cell
     write_json(out_dir / "replay.json", {
-        **identity, "slope_level": c.slope_level, "roughness_level": c.roughness_level, "slope_pct": c.slope_pct,
+        "benchmark_version": BENCHMARK_VERSION, **identity, "slope_level": c.slope_level, "roughness_level": c.roughness_level, "slope_pct": c.slope_pct,
         "roughness_extent_m": c.roughness_extent_m, "episode": r.episode,
         "episode_seed": r.episode_seed, "success": r.success, "ttr_s": r.ttr_s, "dtr_m": r.dtr_m,
         "diverged": r.diverged, "control_steps": len(r.states) - 1,
-        "goal_height_m": r.goal_height_m, "max_tilt_deg": cfg.goal.max_tilt_deg,
+        "goal_height_m": r.goal_height_m, "goal_height_ref": cfg.goal.height_ref,
+        "hold_min_height_over_feet_m": r.hold_min_height_over_feet_m, "max_tilt_deg": cfg.goal.max_tilt_deg,
         "hold_s": cfg.goal.hold_s, "config": to_dict(cfg),
     })
 

@@ -159,13 +159,20 @@ def factor_flags(eval_cfg: dict[str, Any]) -> list[tuple[str, str]]:
 
 
 def check_run_identity(out: Path, identity: dict[str, Any]) -> None:
-    """Refuse to resume into a directory that holds a different run."""
+    """Refuse to resume into a directory that holds a different run: another benchmark version
+    (a ``run.json`` without one is of version 0) or another identity."""
     path = out / "run.json"
     if path.exists():
         try:
             old = json.loads(path.read_text())
         except json.JSONDecodeError as e:
             raise ResultsError(f"{path} is corrupt ({e}); use a fresh --out directory") from e
+        version = old.get("benchmark_version", 0)
+        if version != identity.get("benchmark_version"):
+            raise ResultsError(
+                f"{out} holds results of benchmark version {version}; this is version "
+                f"{identity.get('benchmark_version')}: use a fresh --out directory"
+            )
         if isinstance(old.get("config"), dict):
             old = {**old, "config": with_added_defaults(old["config"])}
         if old != identity:

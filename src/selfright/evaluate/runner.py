@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from selfright.config import BenchmarkConfig, ContextConfig, to_dict
+from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, ContextConfig, to_dict
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
 from selfright.evaluate.metrics import summarize
@@ -79,7 +79,7 @@ def evaluate_grid(
     cells = grid_cells(grid, cfg.terrain)
     out_dir = Path(out_dir)
     prepare_out_dir(out_dir)
-    identity = {"policy": policy_name, "grid": grid, "episodes_per_cell": episodes, "seed": seed, "config": to_dict(cfg)}
+    identity = {"benchmark_version": BENCHMARK_VERSION, "policy": policy_name, "grid": grid, "episodes_per_cell": episodes, "seed": seed, "config": to_dict(cfg)}
     if policy.digest is not None:  # the weights, so a resume never mixes two versions of a named policy
         identity["policy_digest"] = policy.digest
     check_run_identity(out_dir, identity)

@@ -1,5 +1,6 @@
 """One replayed episode over time, from ``selfright replay``'s ``trace.csv`` and
-``replay.json``: trunk height against the goal bar, roll and pitch against the tilt limit,
+``replay.json``: body height over the feet (and, for comparison, over the terrain beneath the
+trunk) against the goal bar, roll and pitch against the tilt limit,
 feet on the ground, with the stretches in the goal set shaded."""
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ def plot_trace(folder: Path) -> Path:
     t, goal = tr["t_s"], tr["in_goal"] > 0
     fig, axes = plt.subplots(3, 1, figsize=(7, 5.5), sharex=True)
     panels = [
-        (axes[0], [("height_m", "trunk height")], "m", [meta["goal_height_m"]]),
+        (axes[0], [("height_over_feet_m", "height over the feet"), ("height_over_terrain_m", "height over the terrain")],
+         "m", [meta["goal_height_m"]]),
         (axes[1], [("roll_deg", "roll"), ("pitch_deg", "pitch")], "deg", [-meta["max_tilt_deg"], meta["max_tilt_deg"]]),
         (axes[2], [("feet_down", "feet on ground"), ("body_contacts", "other bodies on ground")], "count", [4]),
     ]

@@ -29,10 +29,6 @@ class Policy(abc.ABC):
     action_mapping: tuple[str, float] | None = None
     """(``ActionConfig.reference``, ``scale_rad``) its actions were trained for; None if not
     recorded (baselines convert their targets for any mapping)."""
-    trained_motor: tuple[str, float] | None = None
-    """(``RobotConfig.motor``, no-load speed in rad/s or 0 = rated) it was trained with; None if
-    not recorded. A ``dcmotor`` policy run on the ideal servos holds its commands to the DC
-    envelope (``selfright.policies.registry.fit_motor``)."""
     digest: str | None = None
     """Short SHA-256 of the weights it acts with (the files it was loaded from), recorded in an
     evaluation's ``run.json`` so that a resumed run refuses results of other weights under

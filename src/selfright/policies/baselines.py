@@ -24,7 +24,7 @@ def joint_angles(obs: torch.Tensor, robot: RobotSpec) -> torch.Tensor:
 
 class TargetPolicy(Policy):
     """Base for controllers that think in joint targets rather than actions (the scripted
-    baselines, ``TorqueEnvelope``)."""
+    baselines)."""
 
     groups = ("student",)
 

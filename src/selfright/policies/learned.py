@@ -133,9 +133,7 @@ def _load_torch(p: Path) -> Policy:
     actor = load_torch_actor(p)
     m = actor.meta
     mapping = (m.action_reference, m.action_scale_rad) if m.action_reference else None
-    policy = TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history)
-    policy.trained_motor = (m.motor, m.motor_speed_rad_s) if m.motor else None
-    return policy
+    return TorchPolicy(actor, m.obs_group, p.stem, mapping, m.obs_history)
 
 
 def load_torch_actor(p: Path) -> ActorMLP:
@@ -159,8 +157,8 @@ def load_torch_actor(p: Path) -> ActorMLP:
         if missing:
             print(
                 f"selfright: warning: training checkpoint {p} has no train_meta.json beside it and records no "
-                f"{' or '.join(missing)}; it runs as this evaluation's, which may not be what it trained with "
-                "(a DC-trained policy then loses its torque envelope). Keep checkpoints in their run folder, or "
+                f"{' or '.join(missing)}; it runs as this evaluation's, which may not be what it trained with. "
+                "Keep checkpoints in their run folder, or "
                 "`selfright export` them.",
                 file=sys.stderr,
             )
@@ -208,10 +206,7 @@ def _load_onnx(p: Path) -> Policy:
         raise ValueError(f"ONNX policy {p}: cannot tell its observation group (no metadata, input size unknown)")
     ref, scale = _json_or_none(props.get("action_reference")), _json_or_none(props.get("action_scale_rad"))
     history = int(_json_or_none(props.get("obs_history")) or 1)
-    policy = OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None, history)
-    motor = _json_or_none(props.get("motor"))
-    policy.trained_motor = (str(motor), float(_json_or_none(props.get("motor_speed_rad_s")) or 0.0)) if motor else None
-    return policy
+    return OnnxPolicy(session, group, p.stem, (str(ref), float(scale or 0.0)) if ref else None, history)
 
 
 # ------------------------------------------------------------------- helpers

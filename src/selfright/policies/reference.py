@@ -92,7 +92,6 @@ class ShiftedReference(Policy):
         self.name = inner.name
         self.groups = inner.groups
         self.action_mapping = env_mapping
-        self.trained_motor = inner.trained_motor
         self.offset = torch.as_tensor(offset, dtype=torch.float32)
         self.fresh: set[int] = set()
         """Slots whose episode has not taken a step yet."""

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 from selfright.config import ActionConfig, BenchmarkConfig
@@ -64,27 +63,9 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_
     return policy if offset is None else ShiftedReference(policy, offset, (action.reference, action.scale_rad))
 
 
-def fit_motor(policy: Policy, cfg: BenchmarkConfig) -> Policy:
-    """``policy`` (already in the env's action mapping) ready for the env's motor model: a
-    policy trained with ``dcmotor`` or in the ``envelope`` (``trained_motor``) run on the
-    ``ideal`` servos holds its commands to the DC motors' torque-speed envelope at the speed it
-    trained with (``TorqueEnvelope``, the limit the ``envelope`` env applies); any other pairing
-    runs unchanged."""
-    if _fit_members(policy, lambda sub: fit_motor(sub, cfg)):
-        return policy
-    trained = policy.trained_motor
-    if trained is None or trained[0] not in ("dcmotor", "envelope") or cfg.robot.motor != "ideal":
-        return policy
-    from selfright.policies.torque_envelope import TorqueEnvelope
-
-    robot_cfg = replace(cfg.robot, motor_speed_rad_s=trained[1] or None)
-    return TorqueEnvelope(policy, get_robot(cfg.robot.name), cfg.action, robot_cfg)
-
-
-def make_policy(name: str, cfg: BenchmarkConfig, envelope: bool = True) -> Policy:
-    """``_make_policy`` followed by ``check_action_mapping`` and (``envelope``) ``fit_motor``."""
-    policy = check_action_mapping(_make_policy(name, cfg), cfg.action, name, cfg.robot.name)
-    return fit_motor(policy, cfg) if envelope else policy
+def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
+    """``_make_policy`` followed by ``check_action_mapping``."""
+    return check_action_mapping(_make_policy(name, cfg), cfg.action, name, cfg.robot.name)
 
 
 def _make_policy(name: str, cfg: BenchmarkConfig) -> Policy:

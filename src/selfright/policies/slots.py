@@ -1,6 +1,6 @@
 """Per-slot buffers of deployed policies: a tensor with one row per env slot that grows to
 the largest slot index seen (evaluation hands out slot ids; training has a fixed number).
-Shared by ``ObsHistory`` and ``TorqueEnvelope``; ``SlotNoise``
+Used by ``ObsHistory``; ``SlotNoise``
 draws per-episode Gaussian noise for ``NoisySensors``."""
 
 from __future__ import annotations
@@ -24,26 +24,6 @@ def grown(buf: torch.Tensor, slots: torch.Tensor, fill: float | bool = 0) -> tor
     if n <= buf.shape[0]:
         return buf
     return torch.cat([buf, torch.full((n - buf.shape[0], *buf.shape[1:]), fill, dtype=buf.dtype)])
-
-
-class LastActions:
-    """Per env slot: the last action a policy wrapper passed on, and whether the slot's episode
-    has taken none yet (``fresh``), for ``TorqueEnvelope``."""
-
-    def __init__(self, num_joints: int):
-        self.last = torch.zeros(0, num_joints)
-        self.fresh = torch.zeros(0, dtype=torch.bool)
-
-    def slots(self, ids: np.ndarray) -> torch.Tensor:
-        """``ids`` as an index tensor, the buffers grown to hold every one of them."""
-        t = slot_index(ids)
-        self.last, self.fresh = grown(self.last, t), grown(self.fresh, t, True)
-        return t
-
-    def reset(self, ids: np.ndarray) -> None:
-        """Slots ``ids`` start an episode."""
-        t = self.slots(ids)  # before reading self.fresh: it may grow
-        self.fresh[t] = True
 
 
 class SlotNoise:

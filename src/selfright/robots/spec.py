@@ -47,9 +47,9 @@ class RobotSpec:
     torque_limit: float
     """Motor torque limit (N·m)."""
     rated_joint_speed: float | None = None
-    """Published maximum joint speed of the motors (rad/s). Enforced only by the opt-in
-    ``RobotConfig.motor = "dcmotor"`` (the default motors give full torque at any speed);
-    ``scripts/joint_stops.py`` reports how often policies exceed it. None: not published."""
+    """Published maximum joint speed of the motors (rad/s): the no-load speed of
+    ``RobotConfig.motor = "dcmotor"``, the benchmark's default (``ideal`` servos give full torque
+    at any speed). None: not published."""
     mjcf: Callable[..., str]
     """``mjcf(kp, kd, stop_timeconst_s=..., motor="ideal")`` -> MJCF text of the robot alone (a
     ``<mujoco>`` document), PD gains ``kp``, ``kd``, hard joint stops of that ``solreflimit``

@@ -83,12 +83,9 @@ def scene_mjcf(robot: RobotSpec, tile: Tile, ctx: ContextConfig, robot_cfg: Robo
         )
     if ctx.wall_gap_ratio is not None and ctx.wall_gap_ratio <= 0:
         raise ValueError(f"wall_gap_ratio must be a positive number of body lengths, got {ctx.wall_gap_ratio}")
-    # "envelope" is the ideal servos; the env limits their targets (selfright.sim.dc_envelope)
-    # and reads the speed itself. A speed for the ideal servos is refused by the robot's mjcf.
-    envelope = robot_cfg.motor == "envelope"
-    speed = {} if robot_cfg.motor_speed_rad_s is None or envelope else {"motor_speed": robot_cfg.motor_speed_rad_s}
-    servo = "ideal" if envelope else robot_cfg.motor
-    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, servo, **speed)
+    # The actuators carry the motor model; a speed for the ideal servos is refused by the robot's mjcf.
+    speed = {} if robot_cfg.motor_speed_rad_s is None else {"motor_speed": robot_cfg.motor_speed_rad_s}
+    body = robot.mjcf(robot_cfg.kp, robot_cfg.kd, robot_cfg.joint_stop_timeconst_s, robot_cfg.motor, **speed)
     inner = re.search(r"<mujoco[^>]*>(.*)</mujoco>", body, re.S)
     assert inner is not None
     robot_xml = inner.group(1)

@@ -59,13 +59,10 @@ class TrainArgs:
     """Joint targets = the standing pose (stand), a taller standing pose (tall) or the current
     angles (current) + 0.5 rad × action; recorded in the checkpoints (evaluate with the same
     --action-reference)."""
-    motor: Motor = "ideal"
-    """Motor model (``RobotConfig.motor``): ideal servos (the benchmark's default), DC motors
-    whose torque falls to 0 at the rated joint speed, or ``envelope``: the ideal servos with the
-    policy's targets held to the DC motors' torque-speed envelope each control step, the limit
-    ``selfright evaluate`` puts on a DC-trained policy, so the policy trains as it will be
-    scored on the benchmark's servos. Evaluate with the same ``--motor`` (a ``dcmotor`` or
-    ``envelope`` policy on the default ideal servos gets the envelope automatically)."""
+    motor: Motor = "dcmotor"
+    """Motor model (``RobotConfig.motor``): the A1's DC motors, whose torque along the motion
+    falls to 0 at the rated joint speed (the benchmark's default), or ideal servos with full
+    torque at any speed, for comparison (evaluate with the same ``--motor``)."""
     joint_stop_timeconst_s: float = RobotConfig.joint_stop_timeconst_s
     """Stiffness of the joints' hard stops (``RobotConfig.joint_stop_timeconst_s``, s): the
     benchmark's 0.01 by default; 0.02 is MuJoCo's softer default, which the older runs of the

@@ -32,7 +32,7 @@ from torch import nn
 from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
-from selfright.config import BenchmarkConfig, to_dict
+from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, to_dict
 from selfright.machine import cpu_model, versions
 from selfright.policies.actor import teacher_checkpoint
 from selfright.policies.reference import reference_offset
@@ -408,6 +408,7 @@ class TrainingRun:
         cmd = shlex.join(sys.argv)
         device = _device_string(s.physics_threads, s.torch_threads, s.device)
         return {
+            "benchmark_version": BENCHMARK_VERSION,
             "role": s.role,
             "context": s.context,
             "seed": s.seed,

@@ -27,6 +27,16 @@ TABLE_I_WORDS = "the seed's Table I exactly"
 """How a card's Reward line names the seed's Table I (``reward_summary``; read by ``card_record``)."""
 STANDING_HEIGHT_WORDS = "the robot's standing height"
 """How a card names the default z* (``RewardConfig.target_height_m`` None)."""
+VERSION_PREFIX = "- **Benchmark version**"
+"""Start of a card's benchmark-version line (``version_line``)."""
+
+
+def version_line(meta: dict[str, Any], summary: dict[str, Any]) -> str:
+    """The card's line on the benchmark version its success was measured under (the
+    evaluation's ``summary.json``) and, if another, the one it was trained under
+    (``train_meta.json``); results without a version are of version 0."""
+    measured, trained = summary.get("benchmark_version", 0), meta.get("benchmark_version", 0)
+    return f"{VERSION_PREFIX}: {measured}" + (f" (trained under version {trained})" if trained != measured else "")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -187,6 +197,7 @@ def model_card(
         f"- **Reward**: {reward_summary(meta)}",
         f"- **Wall-clock**: {hours:.2f} h",
         f"- **Device**: {meta.get('device')}",
+        version_line(meta, summary),
         *success_lines(name, summary),
         f"- **Versions**: {json.dumps(meta.get('versions', {}))}",
         "",
@@ -203,22 +214,20 @@ def model_card(
 
 
 def motor_lines(meta: dict[str, Any]) -> list[str]:
-    """A card line naming the motor model when it is not the benchmark's default ``ideal``."""
+    """A card line naming the motors the run trained with when they are not the benchmark's
+    (``RobotConfig.motor`` at the robot's rated speed)."""
     robot = (meta.get("benchmark_config") or {}).get("robot") or {}
-    motor = robot.get("motor", "ideal")
+    motor, speed = robot.get("motor", RobotConfig.motor), robot.get("motor_speed_rad_s")
     if motor == "ideal":
+        return ["- **Motor model**: `ideal` (full torque at any speed, not the benchmark's DC motors; evaluate with "
+                "`--motor ideal` for comparison)"]
+    if motor == "envelope":  # recorded by runs that applied the DC-motor limit to their joint targets
+        return ["- **Motor model**: trained with the DC motors' torque-speed limit applied to its joint targets "
+                "each control step (an approximation of the benchmark's `dcmotor`, which `selfright evaluate` runs)"]
+    if speed is None:
         return []
-    speed = robot.get("motor_speed_rad_s")
-    trained = "" if speed is None else (f"; trained with their torque reaching 0 at {speed:g} rad/s, not the "
-                                        "robot's rated speed that `selfright evaluate` runs")
-    if motor == "envelope":  # the wrapper keeps the trained speed: no mismatch to warn of
-        at = "" if speed is None else f" (torque reaching 0 at {speed:g} rad/s)"
-        return [f"- **Motor model**: `envelope`: trained on the benchmark's ideal servos with its commands held each "
-                f"control step to the DC motors' torque-speed envelope{at}; `selfright evaluate` holds them "
-                "to it on the ideal servos too (`selfright.policies.torque_envelope`), so evaluate as usual"]
-    ideal = ("; on the benchmark's ideal servos `selfright evaluate` holds its commands to the DC torque-speed "
-             "envelope, `selfright.policies.torque_envelope`" if motor == "dcmotor" else "")
-    return [f"- **Motor model**: `{motor}` (not the benchmark's default; evaluate with `--motor {motor}`{trained}{ideal})"]
+    return [f"- **Motor model**: `{motor}` with the torque reaching 0 at {speed:g} rad/s, not the robot's rated speed "
+            "that `selfright evaluate` runs"]
 
 
 def joint_stop_lines(meta: dict[str, Any]) -> list[str]:
@@ -244,8 +253,8 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     cpu = (summary.get("machine") or {}).get("cpu")
-    motor = (((summary.get("config") or {}).get("robot") or {}).get("motor")) or "ideal"
-    flags = "" if motor == "ideal" else f" --motor {motor}"
+    motor = (((summary.get("config") or {}).get("robot") or {}).get("motor")) or RobotConfig.motor
+    flags = "" if motor == RobotConfig.motor else f" --motor {motor}"
     noise = recorded_sensor_noise(summary)
     flags += f" --sensor-noise {noise:g}" if noise > 0 else ""
     words = f", through sensor noise ×{noise:g}" if noise > 0 else ""
@@ -274,7 +283,13 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
         raise ValueError(f"the evaluation is of --policy {summary.get('policy')!r}, not the shipped {name!r}")
     i = at[0]
     before = lines[i].removeprefix(SUCCESS_PREFIX)
-    return "\n".join([*lines[:i], *success_lines(name, summary), f"  - *Before {why}*{before}", *lines[i + 2:]]) + "\n"
+    old = [k for k, line in enumerate(lines) if line.startswith(VERSION_PREFIX)]
+    # the version it was trained under: the old line's "trained under", else what it was measured under
+    m = re.search(r"(\d+)\D*$", lines[old[0]]) if old else None
+    trained = {"benchmark_version": int(m.group(1)) if m else 0}
+    head = [line for k, line in enumerate(lines[:i]) if k not in old]
+    return "\n".join([*head, version_line(trained, summary), *success_lines(name, summary), f"  - *Before {why}*{before}",
+                      *lines[i + 2:]]) + "\n"
 
 
 OWN_WORDS = ("target_height_m",)

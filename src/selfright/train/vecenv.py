@@ -32,10 +32,10 @@ from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.goal import goal_height_m, upright
+from selfright.env.goal import body_height, goal_height_m, upright
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts
-from selfright.env.rewards import RewardContext, reward_weights, standing_height, weighted_rewards
+from selfright.env.rewards import RewardContext, reward_weights, weighted_rewards
 from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
@@ -89,9 +89,8 @@ class RecoveryVecEnv(VecEnv):
         self.joint_low = torch.tensor(robot.joint_low, dtype=torch.float32)
         self.joint_high = torch.tensor(robot.joint_high, dtype=torch.float32)
         target = train.reward.target_height_m
-        slope = torch.tensor([w.cell.slope_pct for w in worlds], dtype=torch.float32)
-        self.world_target_m = standing_height(robot.stand_height_m if target is None else target, slope)
-        """(W,) z* of each world."""
+        self.target_height_m = robot.stand_height_m if target is None else target
+        """z* of the base-height term, a height over the feet (m)."""
         self.term_names = tuple(reward_weights(train.reward))
         self.episode_sums = {name: torch.zeros(num_envs) for name in self.term_names}
         self.ever_succeeded = torch.zeros(num_envs, dtype=torch.bool)
@@ -281,17 +280,17 @@ class RecoveryVecEnv(VecEnv):
         Returns observations (after any reset), rewards (n,), dones (n,) and extras.
         """
         env = self.env
-        prev_action = env.prev_action.clone()
+        prev_target = env.joint_target.clone()
         out = env.step(actions.detach().cpu())
         diverged = env.diverged
         left_tile = out.failed & ~diverged
         ctx = RewardContext(
-            action=env.prev_action,  # the clipped action just applied
-            prev_action=prev_action,
+            joint_target=env.joint_target,  # the targets just applied
+            prev_joint_target=prev_target,
             start_xy=env.start_xy,
             joint_low=self.joint_low,
             joint_high=self.joint_high,
-            target_height_m=self.world_target_m[torch.from_numpy(env.world_idx)],
+            target_height_m=self.target_height_m,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
@@ -348,7 +347,7 @@ class RecoveryVecEnv(VecEnv):
         ep = self.train_cfg.episode
         leaky = ep.low_stance_leaky
         feet = state.feet_contact.sum(dim=-1) >= (3 if leaky else 4)
-        under = state.height < self.goal_bar_m
+        under = body_height(state, self.env.cfg.goal) < self.goal_bar_m
         low = upright(state.roll, state.pitch, self.env.cfg.goal) & feet & under
         other = (self.low_streak - 1).clamp(min=0) if leaky else torch.zeros_like(self.low_streak)
         streak = torch.where(low, self.low_streak + 1, other)
