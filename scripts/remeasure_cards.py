@@ -1,7 +1,7 @@
 """Re-measure shipped policies' model cards: rewrite each card's success line from a new
 evaluation of the shipped policy (same weights), keeping the line it replaces below it as
 "Before WHY". For when the benchmark's physics changes, or to state a card's number on this
-machine (rows differ across CPU generations; README, *Seeds*).
+machine (rows differ across CPU generations; docs/benchmark.md, *Seeds and determinism*).
 
     for p in flat rough incline; do
       selfright evaluate --policy $p --grid $p --episodes 64 --seed 0 --out remeasure/$p

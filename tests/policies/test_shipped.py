@@ -99,7 +99,7 @@ def test_a_remeasured_card_states_the_new_number_and_keeps_the_old():
 
     card = (CHECKPOINT_DIR / "flat.md").read_text()
     overall = {"n": 64, "successes": 32, "success_rate": 0.5, "success_ci95": [0.38, 0.62], "ttr_mean_s": 2.0, "dtr_mean_m": None}
-    summary = {"policy": "flat", "grid": "flat", "episodes_per_cell": 64, "seed": 3, "overall": overall,
+    summary = {"benchmark_version": 1, "policy": "flat", "grid": "flat", "episodes_per_cell": 64, "seed": 3, "overall": overall,
                "machine": {"cpu": "Test CPU"}}
     new = remeasured_card(card, "flat", summary, "a change")
     assert new.count(SUCCESS_PREFIX) == 1
