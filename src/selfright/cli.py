@@ -1,4 +1,4 @@
-"""``selfright`` command line: evaluate, compare, replay, scene, bench-sim, train, export, ship (tyro subcommands)."""
+"""``selfright`` command line: evaluate, compare, yaw-study, report, replay, scene, bench-sim, train, export, ship (tyro subcommands)."""
 
 from __future__ import annotations
 
@@ -114,6 +114,58 @@ class Compare:
 
 
 @dataclass(frozen=True)
+class _Study:
+    """Options shared by ``yaw-study`` and ``report``."""
+
+    episodes: int = 20
+    """Episodes per grid cell and per yaw-study slope and heading."""
+    slopes_deg: tuple[float, ...] = (12.0, 15.0, 18.0)
+    """Inclines of the yaw study (deg); the seed's Table II used 12, 15 and 18."""
+    seed: int = 0
+    """Run seed: terrain and every episode's fall and heading are derived from it."""
+    threads: int = 0
+    """Physics threads (0 = one per core)."""
+    batch_size: int = 64
+    """Episodes simulated side by side."""
+    hold_s: float = 1.0
+    """Seconds the goal set must be held for success."""
+    episode_s: float = 10.0
+    """Episode limit after settling (s)."""
+    progress: bool = True
+    """Show progress bars."""
+
+    def bench_config(self) -> BenchmarkConfig:
+        if self.batch_size < 1:
+            raise ValueError("--batch-size must be >= 1")
+        return _benchmark_config(threads=self.threads, batch_size=self.batch_size, hold_s=self.hold_s, episode_s=self.episode_s)
+
+
+@dataclass(frozen=True)
+class YawStudy(_Study):
+    """The seed's Table II in simulation: recoveries on smooth inclines from headings within ±15°
+    of down-, up- and cross-slope (docs/benchmark.md, *Yaw study*); writes episodes.csv, yaw.csv, yaw.png."""
+
+    policy: str = "open-loop"
+    """As for evaluate."""
+    out: Path | None = None
+    """Results directory (default results/POLICY_yaw). Rerunning into it resumes."""
+
+
+@dataclass(frozen=True)
+class Report(_Study):
+    """The seed's experiments for a set of policies: each on a grid and in the yaw study, then
+    DIR/report.md and DIR/index.html with the heatmaps, histograms, Table II and the seed's
+    claims beside our numbers. Rerunning into DIR resumes."""
+
+    grid: Literal["tiny", "quick", "paper"] = "quick"
+    """tiny = 2×2 cells (tests), quick = every other level, paper = the full 11×20 grid."""
+    policies: tuple[str, ...] = ("open-loop", "flat", "rough", "incline", "sr")
+    """Policies to run (as for evaluate), in the report's order; default the seed's set. Give your own list, e.g. --policies flat mine.py:MyPolicy."""
+    out: Path = Path("results/report")
+    """Report directory: one results folder per policy (its yaw study in FOLDER/yaw), report.md, index.html."""
+
+
+@dataclass(frozen=True)
 class Scene:
     """Write a self-contained MJCF of the robot on one terrain tile (open it in the MuJoCo viewer)."""
 
@@ -178,6 +230,34 @@ def run_evaluate(a: Evaluate) -> None:
         make_plots(out)
     print(format_table(res.summary))
     print(f"{res.episodes_run} episodes simulated in {res.seconds:.1f} s; results in {out}/")
+
+
+def run_yaw_study(a: YawStudy) -> None:
+    """``selfright yaw-study``."""
+    from selfright.evaluate.yaw import run_yaw_study as run
+    from selfright.plots.yaw_table import plot_yaw
+    from selfright.policies.registry import make_policy
+
+    cfg = a.bench_config()
+    out = a.out or Path("results") / f"{policy_stem(a.policy)}_yaw"
+    res = run(make_policy(a.policy, cfg), policy_name=a.policy, slopes_deg=a.slopes_deg, episodes=a.episodes, seed=a.seed,
+              out_dir=out, cfg=cfg, progress=a.progress)
+    plot_yaw(out)
+    print((out / "yaw.csv").read_text().rstrip())
+    print(f"{res.episodes_run} episodes simulated in {res.seconds:.1f} s; results in {out}/ (yaw.csv, yaw.png)")
+
+
+def run_report(a: Report) -> None:
+    """``selfright report``."""
+    from selfright.evaluate.report import context_boxes, run_report as run
+    from selfright.plots.report_page import write_report
+    from selfright.train.config import EpisodeConfig
+
+    stems = [policy_stem(p) for p in a.policies]
+    run(list(zip(a.policies, stems)), grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=a.out, cfg=a.bench_config(),
+        boxes=context_boxes(EpisodeConfig().rough_max_extent_m), slopes_deg=a.slopes_deg, progress=a.progress)
+    md, page = write_report(a.out)
+    print(f"report: {page} ({md})")
 
 
 def run_replay(a: Replay) -> None:
@@ -254,7 +334,7 @@ def _commands() -> dict[str, type]:
     from selfright.train.commands import ExportArgs, TrainArgs
     from selfright.train.ship import ShipArgs
 
-    return {"evaluate": Evaluate, "compare": Compare, "replay": Replay, "scene": Scene, "bench-sim": BenchSim,
+    return {"evaluate": Evaluate, "compare": Compare, "yaw-study": YawStudy, "report": Report, "replay": Replay, "scene": Scene, "bench-sim": BenchSim,
             "train": TrainArgs, "export": ExportArgs, "ship": ShipArgs}
 
 
@@ -272,6 +352,10 @@ def main(argv: list[str] | None = None) -> int:
                 from selfright.plots.heatmaps import difference_heatmap
 
                 print(f"difference heatmap: {difference_heatmap(args.folders, args.plot)}")
+        elif isinstance(args, YawStudy):
+            run_yaw_study(args)
+        elif isinstance(args, Report):
+            run_report(args)
         elif isinstance(args, Replay):
             run_replay(args)
         elif isinstance(args, Scene):

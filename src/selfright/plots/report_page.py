@@ -1,0 +1,261 @@
+"""The report of ``selfright report``: ``report.md`` and a self-contained ``index.html`` (PNG
+figures beside it), in the seed's order: per policy the success / TTR / DTR heatmaps with the
+training contexts boxed, the TTR / DTR histograms, then Table II beside our yaw study, then the
+seed's claims with our numbers. Reads only result files (``report.json`` and the folders it lists)."""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import Normalize  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
+
+from selfright.evaluate import claims  # noqa: E402
+from selfright.evaluate.yaw_results import DIRECTIONS, read_yaw_table  # noqa: E402
+from selfright.plots.heatmaps import (  # noqa: E402
+    DTR_BIN_M, MISSING_COLOR, TTR_BIN_S, CellGrid, _histogram, _text_color, build_grid, read_successful,
+)
+from selfright.plots.yaw_table import COLUMN_TITLES, plot_yaw, seed_mark  # noqa: E402
+
+BOX_COLOR = "#7fdc7f"
+"""Edge colour of the training-context boxes (the seed's light green)."""
+SEED_FIGURES = {
+    ("flat", "success"): 4, ("flat", "ttr"): 5, ("flat", "dtr"): 6, ("flat", "ttr_hist"): 7, ("flat", "dtr_hist"): 8,
+    ("incline", "success"): 9, ("rough", "success"): 11, ("rough", "ttr"): 12, ("rough", "dtr"): 13,
+    ("rough", "ttr_hist"): 14, ("rough", "dtr_hist"): 15,
+}
+"""(policy, figure) → the seed's figure number showing the same thing for its policy."""
+HEATMAPS = (
+    ("success", "success_rate", 100.0, "Success rate (%)", "success rate (%)", ".0f", "viridis", (0.0, 100.0)),
+    ("ttr", "ttr_mean_s", 1.0, "Mean time to recover (s)", "time to recover (s)", ".2f", "magma_r", (None, None)),
+    ("dtr", "dtr_mean_m", 1.0, "Mean distance to recover (m)", "distance to recover (m)", ".3f", "magma_r", (None, None)),
+)
+"""(figure, summary key, scale, title, colour-bar label, number format, colour map, (vmin, vmax))."""
+
+Block = tuple
+"""One piece of the page: ("h1"|"h2"|"h3"|"p", text), ("img", src, caption) or ("table", header, rows)."""
+
+
+def boxed_heatmap(grid: CellGrid, values: np.ndarray, boxes: list[tuple[str, int, int, int]], *, title: str,
+                  cbar_label: str, fmt: str, cmap_name: str, vmin: float | None, vmax: float | None, path: Path) -> Path:
+    """An annotated (slope × roughness) heatmap of ``values`` (rows, cols) with each training
+    context ``(name, row, first col, last col)`` boxed in light green; NaN cells grey."""
+    finite = values[np.isfinite(values)]
+    lo = vmin if vmin is not None else (float(finite.min()) if finite.size else 0.0)
+    hi = vmax if vmax is not None else (float(finite.max()) if finite.size else 1.0)
+    norm = Normalize(vmin=lo, vmax=hi if hi > lo else lo + 1.0)
+    cmap = plt.get_cmap(cmap_name).with_extremes(bad=MISSING_COLOR)
+    n_rows, n_cols = values.shape
+    fig, ax = plt.subplots(figsize=(1.6 + 0.75 * n_cols, 1.4 + 0.5 * n_rows), layout="constrained")
+    im = ax.imshow(np.ma.masked_invalid(values), cmap=cmap, norm=norm, origin="lower", aspect="auto")
+    for i in range(n_rows):
+        for j in range(n_cols):
+            v = values[i, j]
+            if np.isfinite(v):
+                ax.text(j, i, format(v, fmt), ha="center", va="center", fontsize=7, color=_text_color(cmap(norm(v))))
+            elif grid.cells[i][j] is not None:
+                ax.text(j, i, "N/A", ha="center", va="center", fontsize=7)
+    for name, row, c0, c1 in boxes:
+        ax.add_patch(Rectangle((c0 - 0.5, row - 0.5), c1 - c0 + 1, 1, fill=False, edgecolor=BOX_COLOR, linewidth=2.5))
+        ax.text(c0 - 0.45, row + 0.45, f"c_{name.upper()}", ha="left", va="top", fontsize=6, color=BOX_COLOR,
+                fontweight="bold")
+    ax.set_xticks(range(n_cols), grid.col_labels, fontsize=6)
+    ax.set_yticks(range(n_rows), grid.row_labels, fontsize=7)
+    ax.set_xlabel("roughness level")
+    ax.set_ylabel("slope grade (angle)")
+    ax.set_title(title, fontsize=9)
+    fig.colorbar(im, ax=ax, label=cbar_label)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def box_cells(cells: list[dict[str, Any]], box: dict[str, Any], tolerance_deg: float = 3.0) -> list[dict[str, Any]]:
+    """The summary cells inside a context box (a ``ContextBox`` as a dict): on the grid row whose
+    slope is nearest the box's (if within ``tolerance_deg``), with a roughness extent in the box's
+    range."""
+    rows = sorted({float(c["slope_deg"]) for c in cells})
+    if not rows:
+        return []
+    nearest = min(rows, key=lambda d: abs(d - box["slope_deg"]))
+    if abs(nearest - box["slope_deg"]) > tolerance_deg:
+        return []
+    return [c for c in cells if math.isclose(float(c["slope_deg"]), nearest)
+            and box["extent_low_m"] - 1e-12 <= float(c["roughness_extent_m"]) <= box["extent_high_m"] + 1e-12]
+
+
+def grid_boxes(grid: CellGrid, cells: list[dict[str, Any]], boxes: list[dict[str, Any]]) -> list[tuple[str, int, int, int]]:
+    """Each context box as (name, row, first col, last col) of ``grid``; boxes with no cell are left out."""
+    where = {id(c): (i, j) for i, row in enumerate(grid.cells) for j, c in enumerate(row) if c is not None}
+    out = []
+    for b in boxes:
+        spots = [where[id(c)] for c in box_cells(cells, b)]
+        if spots:
+            out.append((b["context"], spots[0][0], min(j for _, j in spots), max(j for _, j in spots)))
+    return out
+
+
+def policy_figures(folder: Path, name: str, boxes: list[dict[str, Any]]) -> list[Block]:
+    """Draw one policy's heatmaps and histograms into ``folder``; returns their page blocks
+    (image paths relative to the report, i.e. ``folder.name/...``)."""
+    summary = json.loads((folder / "summary.json").read_text())
+    cells = summary["cells"]
+    grid = build_grid(cells)
+    drawn = grid_boxes(grid, cells, boxes)
+    tag = f"{name} on {summary['grid']}, {summary['episodes_per_cell']} episodes/cell"
+    blocks: list[Block] = [("h2", f"Policy {name}")]
+    for fig, key, scale, title, label, fmt, cmap, (lo, hi) in HEATMAPS:
+        boxed_heatmap(grid, grid.values(key, scale), drawn, title=f"{title}\n{tag}", cbar_label=label, fmt=fmt,
+                      cmap_name=cmap, vmin=lo, vmax=hi, path=folder / f"report_{fig}.png")
+        blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{title}, {tag}; training contexts boxed")))
+    episodes = folder / "episodes.csv"
+    for fig, col, width, label in (("ttr_hist", "ttr_s", TTR_BIN_S, "time to recover (s)"),
+                                   ("dtr_hist", "dtr_m", DTR_BIN_M, "distance to recover (m)")):
+        _histogram(read_successful(episodes, col), bin_width=width, xlabel=label, path=folder / f"report_{fig}.png",
+                   title=f"{label[0].upper()}{label[1:]}, successful episodes, bins of {width:g}\n{tag}")
+        blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{label}, bins of {width:g}")))
+    o = summary["overall"]
+    blocks.append(("p", f"Overall: {o['successes']} of {o['n']} episodes recovered ({100 * o['success_rate']:.1f} %). "
+                        f"Data: [{folder.name}/summary.json]({folder.name}/summary.json), "
+                        f"[{folder.name}/episodes.csv]({folder.name}/episodes.csv)."))
+    return blocks
+
+
+def _caption(policy: str, fig: str, text: str) -> str:
+    n = SEED_FIGURES.get((policy, fig))
+    return f"{text}" + (f" (seed Fig. {n})" if n else "")
+
+
+def table_ii_blocks(out: Path, entries: list[dict[str, str]]) -> list[Block]:
+    """Table II beside each policy's yaw study (hardware-rule recoveries, benchmark successes)."""
+    blocks: list[Block] = [("h2", "Yaw study: Table II"),
+                           ("p", "Recoveries within less than one full roll and without leaving the incline (the seed's "
+                                 "hardware rule), from headings within ±15° of down-, up- and cross-slope "
+                                 "(docs/benchmark.md, *Yaw study*). Seed: ✓ recovered on the A1, ✗ did not.")]
+    for e in entries:
+        yaw = out / e["folder"] / "yaw"
+        plot_yaw(yaw)
+        rows = read_yaw_table(yaw / "yaw.csv")
+        by = {(float(r["slope_deg"]), r["direction"]): r for r in rows}
+        slopes = sorted({s for s, _ in by})
+        table = [[f"{s:g}°"] + [
+            f"seed {(seed_mark(s, d) or '✗') if seed_mark(s, d) != '–' else '–'} · ours {100 * float(by[(s, d)]['hardware_success_rate']):.0f} %"
+            f" (success {100 * float(by[(s, d)]['success_rate']):.0f} %, n={int(by[(s, d)]['episodes'])})"
+            for d in DIRECTIONS] for s in slopes]
+        blocks += [("h3", f"{e['name']}"), ("table", ["incline"] + [COLUMN_TITLES[d] for d in DIRECTIONS], table),
+                   ("img", f"{e['folder']}/yaw/yaw.png", f"{e['name']}: yaw study laid out like the seed's Table II"),
+                   ("p", f"Data: [{e['folder']}/yaw/yaw.csv]({e['folder']}/yaw/yaw.csv).")]
+    return blocks
+
+
+def claim_rows(out: Path, entries: list[dict[str, str]]) -> list[list[str]]:
+    """[claim, policy, ours, verdict] for each of the seed's claims the report's policies allow."""
+    summaries = {e["name"]: json.loads((out / e["folder"] / "summary.json").read_text()) for e in entries}
+    rows: list[list[str]] = []
+
+    def add(text: str, who: str, v: claims.Verdict) -> None:
+        rows.append([text, who, v.ours, v.verdict])
+
+    if "flat" in summaries:
+        add("π_FLAT does quite well until slope level 5 and roughness level 10", "flat", claims.flat_good_until(summaries["flat"]))
+    if "rough" in summaries and "flat" in summaries:
+        add("π_ROUGH does much better on all rough terrain", "rough vs flat",
+            claims.rough_better_on_rough(summaries["rough"], summaries["flat"]))
+    if "rough" in summaries:
+        add("π_ROUGH similarly struggles at higher terrain slopes", "rough", claims.rough_struggles_on_steep(summaries["rough"]))
+    if "incline" in summaries:
+        add("π_INCLINE exhibits good success on slopes gentler than its training slope", "incline",
+            claims.incline_good_on_gentler(summaries["incline"]))
+    for e in entries:
+        yaw = read_yaw_table(out / e["folder"] / "yaw" / "yaw.csv")
+        add("Cross-slope is the most likely to succeed (Table II)", e["name"], claims.cross_most_likely(yaw))
+        add("Up-slope rolling helps on steeper slopes (Table II)", e["name"], claims.up_helps_on_steeper(yaw))
+    return rows
+
+
+def write_report(out_dir: str | Path) -> tuple[Path, Path]:
+    """Draw every figure and write ``report.md`` and ``index.html`` into ``out_dir`` (which holds
+    the ``report.json`` of ``selfright.evaluate.report.run_report``); returns both paths."""
+    out = Path(out_dir)
+    manifest_path = out / "report.json"
+    if not manifest_path.is_file():
+        raise FileNotFoundError(f"{manifest_path} not found; run selfright report to produce it first")
+    m = json.loads(manifest_path.read_text())
+    entries = m["policies"]
+    blocks: list[Block] = [
+        ("h1", "Self-righting benchmark report"),
+        ("p", f"Benchmark version {m['benchmark_version']}, grid {m['grid']}, {m['episodes']} episodes per cell and per "
+              f"yaw-study heading, seed {m['seed']}; policies: {', '.join(e['name'] for e in entries)}. Heatmap rows are "
+              "slope levels (steeper upward), columns roughness levels; light green boxes mark the seed's training "
+              "contexts (c_FLAT, c_ROUGH, c_INCLINE; a box appears where the grid has its cells)."),
+    ]
+    for e in entries:
+        blocks += policy_figures(out / e["folder"], e["name"], m["context_boxes"])
+    blocks += table_ii_blocks(out, entries)
+    blocks += [("h2", "The seed's claims and our numbers"),
+               ("p", f"Verdicts use a success rate of {100 * claims.GOOD_RATE:.0f} % for \"does well\" and a margin of "
+                     f"{100 * claims.MARGIN:.0f} points for \"better\" (selfright.evaluate.claims)."),
+               ("table", ["claim (seed)", "policy", "ours", "verdict"], claim_rows(out, entries))]
+    md, page = out / "report.md", out / "index.html"
+    md.write_text(to_markdown(blocks))
+    page.write_text(to_html(blocks))
+    return md, page
+
+
+def to_markdown(blocks: list[Block]) -> str:
+    lines: list[str] = []
+    for b in blocks:
+        if b[0] in ("h1", "h2", "h3"):
+            lines += ["#" * int(b[0][1]) + " " + b[1], ""]
+        elif b[0] == "p":
+            lines += [b[1], ""]
+        elif b[0] == "img":
+            lines += [f"![{b[2]}]({b[1]})", "", f"*{b[2]}*", ""]
+        elif b[0] == "table":
+            lines += ["| " + " | ".join(b[1]) + " |", "|" + "---|" * len(b[1])]
+            lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in b[2]] + [""]
+    return "\n".join(lines)
+
+
+def _inline(text: str) -> str:
+    """Escape ``text`` for HTML, turning markdown links ``[a](b)`` into anchors."""
+    import re
+
+    return re.sub(r"\[([^\]]+)\]\(([^)]+)\)", r'<a href="\2">\1</a>', html.escape(text, quote=False))
+
+
+STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;line-height:1.4;color:#222}"
+         "img{max-width:100%;border:1px solid #ddd}figure{margin:1em 0}figcaption{font-size:.9em;color:#555}"
+         "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:.3em .6em;font-size:.9em}"
+         "th{background:#f3f3f3}td.supported{background:#e3f6e3}td.not-supported{background:#fbe4e4}")
+
+
+def to_html(blocks: list[Block]) -> str:
+    parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+             "<title>Self-righting benchmark report</title>", f"<style>{STYLE}</style></head><body>"]
+    for b in blocks:
+        if b[0] in ("h1", "h2", "h3"):
+            parts.append(f"<{b[0]}>{html.escape(b[1])}</{b[0]}>")
+        elif b[0] == "p":
+            parts.append(f"<p>{_inline(b[1])}</p>")
+        elif b[0] == "img":
+            parts.append(f'<figure><img src="{html.escape(b[1])}" alt="{html.escape(b[2])}">'
+                         f"<figcaption>{html.escape(b[2])}</figcaption></figure>")
+        elif b[0] == "table":
+            head = "".join(f"<th>{html.escape(h)}</th>" for h in b[1])
+            body = "".join(
+                "<tr>" + "".join(
+                    f'<td class="{c.replace(" ", "-")}">{html.escape(c)}</td>' if c in ("supported", "not supported")
+                    else f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in b[2])
+            parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"
