@@ -12,6 +12,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any
 
 import matplotlib
@@ -20,6 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import Normalize  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from selfright.evaluate.results import recorded_sensor_noise  # noqa: E402
@@ -82,19 +84,26 @@ def build_grid(cells: list[dict[str, Any]]) -> CellGrid:
     return CellGrid(row_labels=row_labels, col_labels=col_labels, cells=grid)
 
 
-def _text_color(rgba: tuple[float, ...]) -> str:
+def text_color(rgba: tuple[float, ...]) -> str:
     """Black or white, whichever reads better on a cell of colour ``rgba``."""
     r, g, b = rgba[:3]
     return "black" if 0.299 * r + 0.587 * g + 0.114 * b > 0.5 else "white"
 
 
-def _heatmap(grid: CellGrid, values: np.ndarray, *, title: str, cbar_label: str, fmt: str,
-             cmap_name: str, path: Path, vmin: float | None = None, vmax: float | None = None,
-             na_text: str = "N/A", marks: np.ndarray | None = None) -> Path:
+BOX_COLOR = "#7fdc7f"
+"""Edge colour of the training-context boxes (the seed's light green)."""
+
+
+def heatmap(grid: CellGrid, values: np.ndarray, *, title: str, cbar_label: str, fmt: str,
+            cmap_name: str, path: Path, vmin: float | None = None, vmax: float | None = None,
+            na_text: str = "N/A", marks: np.ndarray | None = None,
+            boxes: Sequence[tuple[str, int, int, int]] = (), compact: bool = False) -> Path:
     """Draw an annotated heatmap of ``values`` ``(n_rows, n_cols)``; NaN cells are grey.
 
     ``na_text`` annotates NaN cells that exist in the grid; absent cells stay blank. ``marks``
-    (same shape, str) is appended to each finite cell's number.
+    (same shape, str) is appended to each finite cell's number. Each of ``boxes``
+    ``(context name, row, first col, last col)`` is outlined in ``BOX_COLOR`` and labelled
+    ``c_NAME``. ``compact`` draws smaller cells and type (for a page of many figures).
     """
     n_rows, n_cols = values.shape
     finite = values[np.isfinite(values)]
@@ -105,23 +114,29 @@ def _heatmap(grid: CellGrid, values: np.ndarray, *, title: str, cbar_label: str,
     norm = Normalize(vmin=lo, vmax=hi)
     cmap = plt.get_cmap(cmap_name).with_extremes(bad=MISSING_COLOR)
 
-    fig, ax = plt.subplots(figsize=(1.6 + 1.3 * n_cols, 1.4 + 0.75 * n_rows), layout="constrained")
+    (cell_w, cell_h), text_size = ((0.75, 0.5), 7) if compact else ((1.3, 0.75), 10)
+    fig, ax = plt.subplots(figsize=(1.6 + cell_w * n_cols, 1.4 + cell_h * n_rows), layout="constrained")
     im = ax.imshow(np.ma.masked_invalid(values), cmap=cmap, norm=norm, origin="lower", aspect="auto")
     for i in range(n_rows):
         for j in range(n_cols):
             v = values[i, j]
             if np.isfinite(v):
-                ax.text(j, i, format(v, fmt) + ("" if marks is None else marks[i, j]), ha="center", va="center", fontsize=10,
-                        color=_text_color(cmap(norm(v))))
+                ax.text(j, i, format(v, fmt) + ("" if marks is None else marks[i, j]), ha="center", va="center",
+                        fontsize=text_size, color=text_color(cmap(norm(v))))
             elif grid.cells[i][j] is not None:
-                ax.text(j, i, na_text, ha="center", va="center", fontsize=10, color="black")
-    ax.set_xticks(range(n_cols), grid.col_labels)
-    ax.set_yticks(range(n_rows), grid.row_labels)
+                ax.text(j, i, na_text, ha="center", va="center", fontsize=text_size, color="black")
+    for name, row, c0, c1 in boxes:
+        ax.add_patch(Rectangle((c0 - 0.5, row - 0.5), c1 - c0 + 1, 1, fill=False, edgecolor=BOX_COLOR, linewidth=2.5))
+        ax.text(c0 - 0.45, row + 0.45, f"c_{name.upper()}", ha="left", va="top", fontsize=text_size - 1,
+                color=BOX_COLOR, fontweight="bold")
+    tick_size = {"fontsize": text_size - 1} if compact else {}
+    ax.set_xticks(range(n_cols), grid.col_labels, **tick_size)
+    ax.set_yticks(range(n_rows), grid.row_labels, **tick_size)
     ax.set_xlabel("roughness level")
     ax.set_ylabel("slope grade (angle)")
-    ax.set_title(title, fontsize=10)
+    ax.set_title(title, fontsize=text_size + 2 if compact else 10)
     fig.colorbar(im, ax=ax, label=cbar_label)
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110 if compact else 120)
     plt.close(fig)
     return path
 
@@ -139,7 +154,7 @@ def read_successful(episodes_csv: Path, column: str) -> np.ndarray:
     return np.asarray(vals, dtype=float)
 
 
-def _histogram(values: np.ndarray, *, bin_width: float, title: str, xlabel: str, path: Path) -> Path:
+def histogram(values: np.ndarray, *, bin_width: float, title: str, xlabel: str, path: Path) -> Path:
     """Histogram of ``values`` with bins of ``bin_width`` aligned to multiples of it."""
     fig, ax = plt.subplots(figsize=(6.0, 3.8), layout="constrained")
     if values.size == 0:
@@ -187,20 +202,20 @@ def make_plots(out_dir: str | Path) -> list[Path]:
     grid = build_grid(cells)
 
     paths = [
-        _heatmap(grid, grid.values("success_rate", 100.0), path=out / "success.png",
+        heatmap(grid, grid.values("success_rate", 100.0), path=out / "success.png",
                  title=f"Success rate (%) across slope and roughness\n{tag}{per_cell}",
                  cbar_label="success rate (%)", fmt=".0f", cmap_name="viridis",
                  vmin=0.0, vmax=100.0),
-        _heatmap(grid, grid.values("ttr_mean_s"), path=out / "ttr.png",
+        heatmap(grid, grid.values("ttr_mean_s"), path=out / "ttr.png",
                  title=f"Mean time to recover (s), successful episodes\n{tag}",
                  cbar_label="time to recover (s)", fmt=".2f", cmap_name="magma_r"),
-        _heatmap(grid, grid.values("dtr_mean_m"), path=out / "dtr.png",
+        heatmap(grid, grid.values("dtr_mean_m"), path=out / "dtr.png",
                  title=f"Mean distance to recover (m), successful episodes\n{tag}",
                  cbar_label="distance to recover (m)", fmt=".3f", cmap_name="magma_r"),
-        _histogram(read_successful(episodes_path, "ttr_s"), bin_width=TTR_BIN_S,
+        histogram(read_successful(episodes_path, "ttr_s"), bin_width=TTR_BIN_S,
                    path=out / "ttr_hist.png", xlabel="time to recover (s)",
                    title=f"Time to recover, all successful episodes\n{tag}"),
-        _histogram(read_successful(episodes_path, "dtr_m"), bin_width=DTR_BIN_M,
+        histogram(read_successful(episodes_path, "dtr_m"), bin_width=DTR_BIN_M,
                    path=out / "dtr_hist.png", xlabel="distance to recover (m)",
                    title=f"Distance to recover, all successful episodes\n{tag}"),
     ]
@@ -248,7 +263,7 @@ def difference_heatmap(folders: list[Path] | tuple[Path, ...], path: str | Path)
     p_all = mcnemar_p(int((a & ~b).sum()), int((b & ~a).sum()))
     title = (f"Success, {o.names[1]} minus {o.names[0]} (points), {len(o.keys)} shared falls\n"
              f"overall {100.0 * (b.mean() - a.mean()):+.1f} points, McNemar p = {p_all:.3g}; * p < 0.05 in the cell")
-    return _heatmap(grid, diff, title=title, cbar_label="success difference (points)", fmt="+.0f",
+    return heatmap(grid, diff, title=title, cbar_label="success difference (points)", fmt="+.0f",
                     cmap_name="RdBu", path=Path(path), vmin=-span, vmax=span, marks=marks)
 
 

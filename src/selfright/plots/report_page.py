@@ -11,23 +11,11 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+from selfright.evaluate import claims
+from selfright.evaluate.yaw_results import DIRECTIONS, read_yaw_table
+from selfright.plots.heatmaps import DTR_BIN_M, TTR_BIN_S, CellGrid, build_grid, heatmap, histogram, read_successful
+from selfright.plots.yaw_table import COLUMN_TITLES, plot_yaw, seed_mark
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import Normalize  # noqa: E402
-from matplotlib.patches import Rectangle  # noqa: E402
-
-from selfright.evaluate import claims  # noqa: E402
-from selfright.evaluate.yaw_results import DIRECTIONS, read_yaw_table  # noqa: E402
-from selfright.plots.heatmaps import (  # noqa: E402
-    DTR_BIN_M, MISSING_COLOR, TTR_BIN_S, CellGrid, _histogram, _text_color, build_grid, read_successful,
-)
-from selfright.plots.yaw_table import COLUMN_TITLES, plot_yaw, seed_mark  # noqa: E402
-
-BOX_COLOR = "#7fdc7f"
-"""Edge colour of the training-context boxes (the seed's light green)."""
 SEED_FIGURES = {
     ("flat", "success"): 4, ("flat", "ttr"): 5, ("flat", "dtr"): 6, ("flat", "ttr_hist"): 7, ("flat", "dtr_hist"): 8,
     ("incline", "success"): 9, ("rough", "success"): 11, ("rough", "ttr"): 12, ("rough", "dtr"): 13,
@@ -43,40 +31,6 @@ HEATMAPS = (
 
 Block = tuple
 """One piece of the page: ("h1"|"h2"|"h3"|"p", text), ("img", src, caption) or ("table", header, rows)."""
-
-
-def boxed_heatmap(grid: CellGrid, values: np.ndarray, boxes: list[tuple[str, int, int, int]], *, title: str,
-                  cbar_label: str, fmt: str, cmap_name: str, vmin: float | None, vmax: float | None, path: Path) -> Path:
-    """An annotated (slope × roughness) heatmap of ``values`` (rows, cols) with each training
-    context ``(name, row, first col, last col)`` boxed in light green; NaN cells grey."""
-    finite = values[np.isfinite(values)]
-    lo = vmin if vmin is not None else (float(finite.min()) if finite.size else 0.0)
-    hi = vmax if vmax is not None else (float(finite.max()) if finite.size else 1.0)
-    norm = Normalize(vmin=lo, vmax=hi if hi > lo else lo + 1.0)
-    cmap = plt.get_cmap(cmap_name).with_extremes(bad=MISSING_COLOR)
-    n_rows, n_cols = values.shape
-    fig, ax = plt.subplots(figsize=(1.6 + 0.75 * n_cols, 1.4 + 0.5 * n_rows), layout="constrained")
-    im = ax.imshow(np.ma.masked_invalid(values), cmap=cmap, norm=norm, origin="lower", aspect="auto")
-    for i in range(n_rows):
-        for j in range(n_cols):
-            v = values[i, j]
-            if np.isfinite(v):
-                ax.text(j, i, format(v, fmt), ha="center", va="center", fontsize=7, color=_text_color(cmap(norm(v))))
-            elif grid.cells[i][j] is not None:
-                ax.text(j, i, "N/A", ha="center", va="center", fontsize=7)
-    for name, row, c0, c1 in boxes:
-        ax.add_patch(Rectangle((c0 - 0.5, row - 0.5), c1 - c0 + 1, 1, fill=False, edgecolor=BOX_COLOR, linewidth=2.5))
-        ax.text(c0 - 0.45, row + 0.45, f"c_{name.upper()}", ha="left", va="top", fontsize=6, color=BOX_COLOR,
-                fontweight="bold")
-    ax.set_xticks(range(n_cols), grid.col_labels, fontsize=6)
-    ax.set_yticks(range(n_rows), grid.row_labels, fontsize=7)
-    ax.set_xlabel("roughness level")
-    ax.set_ylabel("slope grade (angle)")
-    ax.set_title(title, fontsize=9)
-    fig.colorbar(im, ax=ax, label=cbar_label)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
 
 
 def box_cells(cells: list[dict[str, Any]], box: dict[str, Any], tolerance_deg: float = 3.0) -> list[dict[str, Any]]:
@@ -114,13 +68,13 @@ def policy_figures(folder: Path, name: str, boxes: list[dict[str, Any]]) -> list
     tag = f"{name} on {summary['grid']}, {summary['episodes_per_cell']} episodes/cell"
     blocks: list[Block] = [("h2", f"Policy {name}")]
     for fig, key, scale, title, label, fmt, cmap, (lo, hi) in HEATMAPS:
-        boxed_heatmap(grid, grid.values(key, scale), drawn, title=f"{title}\n{tag}", cbar_label=label, fmt=fmt,
-                      cmap_name=cmap, vmin=lo, vmax=hi, path=folder / f"report_{fig}.png")
+        heatmap(grid, grid.values(key, scale), title=f"{title}\n{tag}", cbar_label=label, fmt=fmt, cmap_name=cmap,
+                vmin=lo, vmax=hi, path=folder / f"report_{fig}.png", boxes=drawn, compact=True)
         blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{title}, {tag}; training contexts boxed")))
     episodes = folder / "episodes.csv"
     for fig, col, width, label in (("ttr_hist", "ttr_s", TTR_BIN_S, "time to recover (s)"),
                                    ("dtr_hist", "dtr_m", DTR_BIN_M, "distance to recover (m)")):
-        _histogram(read_successful(episodes, col), bin_width=width, xlabel=label, path=folder / f"report_{fig}.png",
+        histogram(read_successful(episodes, col), bin_width=width, xlabel=label, path=folder / f"report_{fig}.png",
                    title=f"{label[0].upper()}{label[1:]}, successful episodes, bins of {width:g}\n{tag}")
         blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{label}, bins of {width:g}")))
     o = summary["overall"]
