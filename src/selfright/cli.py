@@ -48,6 +48,8 @@ class _Episodes(FurtherFactors):
     """Joint targets = this pose + 0.5 rad × action; must be the one the policy was trained with."""
     motor: Motor = "dcmotor"
     """Motor model: dcmotor (the A1's DC motors, the benchmark's default: 33.5 N·m at stall, the torque along the motion falling to 0 at the rated 21 rad/s) or ideal (full torque at any speed, for comparison)."""
+    fall_cache: bool = True
+    """Read settled falls from (and write them to) $XDG_CACHE_HOME/selfright (default ~/.cache/selfright); --no-fall-cache settles every fall anew (same results)."""
 
     def bench_config(self, batch_size: int = 64) -> BenchmarkConfig:
         return _benchmark_config(
@@ -68,6 +70,10 @@ class Evaluate(_Episodes):
     """Episodes simulated side by side."""
     plots: bool = True
     """Write the heatmaps and histograms."""
+    executor: Literal["local", "ray"] = "local"
+    """Where the batches run: local (this process) or ray (Ray tasks; pip install -e ".[ray]"; docs/ray.md). Same results."""
+    ray_address: str | None = None
+    """With --executor ray: the cluster to join (HOST:PORT of `ray start --head`, or auto); default a local Ray with --threads workers."""
     progress: bool = True
     """Show a progress bar."""
 
@@ -133,6 +139,12 @@ class _Study:
     """Episode limit after settling (s)."""
     progress: bool = True
     """Show progress bars."""
+    fall_cache: bool = True
+    """Read settled falls from (and write them to) $XDG_CACHE_HOME/selfright (default ~/.cache/selfright); --no-fall-cache settles every fall anew (same results)."""
+    executor: Literal["local", "ray"] = "local"
+    """Where the batches run: local (this process) or ray (Ray tasks; pip install -e ".[ray]"; docs/ray.md). Same results."""
+    ray_address: str | None = None
+    """With --executor ray: the cluster to join (HOST:PORT of `ray start --head`, or auto); default a local Ray with --threads workers."""
 
     def bench_config(self) -> BenchmarkConfig:
         if self.batch_size < 1:
@@ -222,7 +234,7 @@ def run_evaluate(a: Evaluate) -> None:
     policy = make_policy(a.policy, cfg)
     res = evaluate_grid(
         policy, policy_name=a.policy, grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=out, cfg=cfg,
-        progress=a.progress,
+        progress=a.progress, fall_cache=a.fall_cache, executor=a.executor, ray_address=a.ray_address,
     )
     if a.plots:
         from selfright.plots import make_plots
@@ -241,7 +253,8 @@ def run_yaw_study(a: YawStudy) -> None:
     cfg = a.bench_config()
     out = a.out or Path("results") / f"{policy_stem(a.policy)}_yaw"
     res = run(make_policy(a.policy, cfg), policy_name=a.policy, slopes_deg=a.slopes_deg, episodes=a.episodes, seed=a.seed,
-              out_dir=out, cfg=cfg, progress=a.progress)
+              out_dir=out, cfg=cfg, progress=a.progress, fall_cache=a.fall_cache, executor=a.executor,
+              ray_address=a.ray_address)
     plot_yaw(out)
     print((out / "yaw.csv").read_text().rstrip())
     print(f"{res.episodes_run} episodes simulated in {res.seconds:.1f} s; results in {out}/ (yaw.csv, yaw.png)")
@@ -255,7 +268,8 @@ def run_report(a: Report) -> None:
 
     stems = [policy_stem(p) for p in a.policies]
     run(list(zip(a.policies, stems)), grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=a.out, cfg=a.bench_config(),
-        boxes=context_boxes(EpisodeConfig().rough_max_extent_m), slopes_deg=a.slopes_deg, progress=a.progress)
+        boxes=context_boxes(EpisodeConfig().rough_max_extent_m), slopes_deg=a.slopes_deg, progress=a.progress,
+        fall_cache=a.fall_cache, executor=a.executor, ray_address=a.ray_address)
     md, page = write_report(a.out)
     print(f"report: {page} ({md})")
 
@@ -271,7 +285,7 @@ def run_replay(a: Replay) -> None:
         f"replay_{policy_stem(a.policy)}_{a.grid}_{cell.slope_level}-{cell.roughness_level}_{a.episode}_s{a.seed}"
     )
     policy = make_policy(a.policy, cfg)
-    r = replay_episode(policy, cfg, cell, a.episode, a.seed)
+    r = replay_episode(policy, cfg, cell, a.episode, a.seed, fall_cache=a.fall_cache)
     write_replay(out, r, {"policy": a.policy, "grid": a.grid, "seed": a.seed}, cfg)
     plot_trace(out)
     outcome = f"success: TTR {r.ttr_s:.2f} s, DTR {r.dtr_m:.2f} m" if r.success else "failure"

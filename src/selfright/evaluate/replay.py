@@ -25,6 +25,7 @@ from selfright.env.goal import goal_height_m, robot_in_goal_set
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.robot_state import RobotState
 from selfright.env.world import build_world
+from selfright.evaluate.fall_cache import FallCache, default_cache_dir
 from selfright.evaluate.results import write_json
 from selfright.evaluate.runner import context_config, episode_seed, prepare_out_dir, rollout_batch
 from selfright.policies.base import Policy
@@ -89,8 +90,9 @@ def _trace_row(rs: RobotState, in_goal: torch.Tensor, t_s: float) -> dict[str, f
     }
 
 
-def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: int, seed: int) -> Replay:
-    """Simulate episode ``episode`` of ``cell`` (run seed ``seed``) as the evaluator does."""
+def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: int, seed: int, fall_cache: bool = True) -> Replay:
+    """Simulate episode ``episode`` of ``cell`` (run seed ``seed``) as the evaluator does
+    (its settled fall read from the fall cache unless ``fall_cache`` is False)."""
     if episode < 0:
         raise ValueError(f"--episode must be >= 0, got {episode}")
     world = build_world(cell, cfg, context_config(cfg), seed)
@@ -110,7 +112,9 @@ def replay_episode(policy: Policy, cfg: BenchmarkConfig, cell: Cell, episode: in
             states.append(env.state[0].copy())
             rows.append(_trace_row(out.state, out.in_goal, float(env.step_count[0]) * env.control_dt))
 
-        success = rollout_batch(env, policy, slot, np.array([ep_seed]), [cell], record, start)
+        falls = FallCache(default_cache_dir(), cfg) if fall_cache else None
+        keys = [falls.key(world, seed, episode, ep_seed)] if falls else ()
+        success = rollout_batch(env, policy, slot, np.array([ep_seed]), [cell], record, start, falls, keys)
         m = env.metrics(slot)
     finally:
         env.close()

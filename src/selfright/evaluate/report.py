@@ -10,7 +10,7 @@ from typing import Any
 
 from selfright.config import BENCHMARK_VERSION, BenchmarkConfig
 from selfright.evaluate.results import write_json
-from selfright.evaluate.runner import evaluate_grid, prepare_out_dir
+from selfright.evaluate.runner import Executor, evaluate_grid, prepare_out_dir
 from selfright.evaluate.yaw import SEED_SLOPES_DEG, run_yaw_study
 from selfright.policies.registry import make_policy
 from selfright.terrain.grid import INCLINE_DEG
@@ -49,10 +49,12 @@ def context_boxes(rough_max_extent_m: float) -> list[ContextBox]:
 def run_report(
     policies: list[tuple[str, str]], *, grid: str, episodes: int, seed: int, out_dir: Path, cfg: BenchmarkConfig,
     boxes: list[ContextBox], slopes_deg: tuple[float, ...] = SEED_SLOPES_DEG, progress: bool = True,
+    fall_cache: bool = True, executor: Executor = "local", ray_address: str | None = None,
 ) -> dict[str, Any]:
     """Evaluate each ``(policy, folder name)`` on ``grid`` into ``out_dir/FOLDER`` and run its yaw
     study into ``out_dir/FOLDER/yaw`` (both resume), then write ``out_dir/report.json``, the
-    manifest the page is written from; returns it."""
+    manifest the page is written from; returns it. ``fall_cache``, ``executor`` and
+    ``ray_address`` are ``evaluate_grid``'s."""
     if grid not in REPORT_GRIDS:
         raise ValueError(f"--grid must be one of {', '.join(REPORT_GRIDS)}, got {grid!r}")
     if not policies:
@@ -63,11 +65,12 @@ def run_report(
     out_dir = Path(out_dir)
     prepare_out_dir(out_dir)
     made = [(name, folder, make_policy(name, cfg)) for name, folder in policies]  # unknown names fail before any run
+    run = {"progress": progress, "fall_cache": fall_cache, "executor": executor, "ray_address": ray_address}
     for name, folder, policy in made:
         evaluate_grid(policy, policy_name=name, grid=grid, episodes=episodes, seed=seed, out_dir=out_dir / folder,
-                      cfg=cfg, progress=progress)
+                      cfg=cfg, **run)
         run_yaw_study(policy, policy_name=name, slopes_deg=slopes_deg, episodes=episodes, seed=seed,
-                      out_dir=out_dir / folder / "yaw", cfg=cfg, progress=progress)
+                      out_dir=out_dir / folder / "yaw", cfg=cfg, **run)
     manifest = {
         "benchmark_version": BENCHMARK_VERSION, "grid": grid, "episodes": episodes, "seed": seed,
         "slopes_deg": [float(d) for d in slopes_deg],

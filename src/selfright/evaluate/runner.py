@@ -5,11 +5,13 @@ depend on the others in its batch, so a resumed or re-batched run gives identica
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from collections.abc import Iterator, Sequence
+from typing import Any, Callable, Literal, Protocol
 
 import numpy as np
 import torch
@@ -18,6 +20,7 @@ from tqdm import tqdm
 from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, ContextConfig, to_dict
 from selfright.env.recovery_env import RecoveryEnv, StepOutput
 from selfright.env.world import World, build_world
+from selfright.evaluate.fall_cache import FallCache, default_cache_dir
 from selfright.evaluate.metrics import summarize
 from selfright.machine import machine
 from selfright.evaluate.results import (
@@ -30,6 +33,10 @@ from selfright.evaluate.results import (
 )
 from selfright.policies.base import Policy
 from selfright.terrain import Cell, grid_cells
+
+
+Executor = Literal["local", "ray"]
+"""Where a run's batches are simulated: this process, or Ray tasks on a cluster."""
 
 
 def episode_seed(seed: int, cell: Cell, episode: int) -> int:
@@ -72,8 +79,16 @@ def evaluate_grid(
     out_dir: Path,
     cfg: BenchmarkConfig,
     progress: bool = True,
+    fall_cache: bool = True,
+    executor: Executor = "local",
+    ray_address: str | None = None,
 ) -> EvalResult:
-    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary."""
+    """Run (or resume) a grid evaluation into ``out_dir``; returns the summary.
+
+    ``fall_cache``: read and write settled falls under ``default_cache_dir()`` (the rows are
+    the same either way). ``executor``: ``local`` runs the batches here; ``ray`` runs each as
+    a Ray task on the cluster at ``ray_address`` (default: a local one), rows written here as
+    they arrive (``selfright.evaluate.ray_executor``)."""
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
     cells = grid_cells(grid, cfg.terrain)
@@ -89,49 +104,126 @@ def evaluate_grid(
     done = {episode_key(r) for r in existing}
     jobs = [(k, e) for k, c in enumerate(cells) for e in range(episodes) if (c.slope_level, c.roughness_level, e) not in done]
 
-    ctx = context_config(cfg)
     t0 = time.time()
-    worlds: list[World] = [build_world(c, cfg, ctx, seed) for c in cells]
-    rough = [w.tile.roughness() for w in worlds]
+    work = GridWork(cfg=cfg, cells=tuple(cells), seed=seed, num_envs=min(cfg.eval.batch_size, max(len(jobs), 1)),
+                    fall_cache_dir=default_cache_dir() if fall_cache else None)
     rows = list(existing)
     if jobs:
         writer = EpisodeWriter(csv_path, existing)
-        env = RecoveryEnv(cfg, worlds, min(cfg.eval.batch_size, len(jobs)))
+        batches = [jobs[b : b + work.num_envs] for b in range(0, len(jobs), work.num_envs)]
         bar = tqdm(total=len(cells) * episodes, initial=len(done), desc=f"{policy_name} on {grid}", unit="ep", disable=not progress)
         try:
-            for b in range(0, len(jobs), env.num_envs):
-                batch = jobs[b : b + env.num_envs]
-                new = _run_batch(env, policy, batch, cells, worlds, rough, seed)
+            for new in run_batches(work, policy, batches, executor, ray_address):
                 writer.write(new)
                 rows.extend(new)
                 bar.update(len(new))
         finally:
             bar.close()
             writer.close()
-            env.close()
     write_canonical(csv_path, rows, order)
 
+    worlds, rough = grid_worlds(cfg, tuple(cells), seed)
     summary = _summary(identity, cells, worlds, rough, rows)
     write_json(out_dir / "summary.json", summary)
     return EvalResult(out_dir=out_dir, summary=summary, seconds=time.time() - t0, episodes_run=len(jobs))
+
+
+@functools.lru_cache(maxsize=2)
+def grid_worlds(cfg: BenchmarkConfig, cells: tuple[Cell, ...], seed: int) -> tuple[list[World], list[float]]:
+    """The worlds of ``cells`` (run seed ``seed``) and their tiles' roughness R, built once per
+    process for the last two grids (a report evaluates several policies on one grid)."""
+    worlds = [build_world(c, cfg, context_config(cfg), seed) for c in cells]
+    return worlds, [w.tile.roughness() for w in worlds]
+
+
+class Work(Protocol):
+    """A run's batches of episodes, described so that any process can simulate them: ``open``
+    builds what the batches run on, once per process (picklable, hashable: Ray ships it)."""
+
+    def open(self, threads: int | None = None) -> "Session": ...
+
+
+class Session(Protocol):
+    def run(self, policy: Policy, batch: list) -> list[dict[str, Any]]: ...
+
+    def close(self) -> None: ...
+
+
+def run_batches(
+    work: Work, policy: Policy, batches: list[list], executor: Executor = "local", ray_address: str | None = None,
+) -> Iterator[list[dict[str, Any]]]:
+    """Rows of each batch of ``batches``: in order with ``local``, as Ray tasks finish with ``ray``."""
+    if executor == "ray":
+        from selfright.evaluate.ray_executor import ray_batches
+
+        yield from ray_batches(work, policy, batches, address=ray_address, num_cpus=work.cfg.sim.threads)
+        return
+    if executor != "local":
+        raise ValueError(f"unknown executor {executor!r}; use local or ray")
+    session = work.open()
+    try:
+        for batch in batches:
+            yield session.run(policy, batch)
+    finally:
+        session.close()
+
+
+@dataclass(frozen=True)
+class GridWork:
+    """The batches of a grid evaluation: every cell's world, one env of ``num_envs`` slots."""
+
+    cfg: BenchmarkConfig
+    cells: tuple[Cell, ...]
+    seed: int
+    num_envs: int
+    fall_cache_dir: Path | None
+    """Settled falls are read from and written to this cache (``FallCache``); None = settle every fall."""
+
+    def open(self, threads: int | None = None) -> GridSession:
+        return GridSession(self, threads)
+
+
+class GridSession:
+    """What a process simulates a grid's batches on: worlds, env, fall cache."""
+
+    def __init__(self, work: GridWork, threads: int | None = None):
+        self.work = work
+        self.worlds, self.rough = grid_worlds(work.cfg, work.cells, work.seed)
+        self.env = RecoveryEnv(work.cfg, self.worlds, work.num_envs, threads)
+        self.falls = None if work.fall_cache_dir is None else FallCache(work.fall_cache_dir, work.cfg)
+
+    def run(self, policy: Policy, batch: list[tuple[int, int]]) -> list[dict[str, Any]]:
+        w = self.work
+        return _run_batch(self.env, policy, batch, list(w.cells), self.worlds, self.rough, w.seed, self.falls)
+
+    def close(self) -> None:
+        self.env.close()
 
 
 def rollout_batch(
     env: RecoveryEnv, policy: Policy, cell_index: np.ndarray, seeds: np.ndarray, cells: list[Cell],
     on_step: Callable[[np.ndarray, StepOutput], None] | None = None,
     on_start: Callable[[], None] | None = None,
+    falls: FallCache | None = None,
+    fall_keys: Sequence[str] = (),
 ) -> np.ndarray:
     """Reset env slots ``0..n-1`` to the falls of ``seeds`` on the worlds ``cell_index`` (grid
     cells ``cells``, one per slot) and run ``policy`` until every episode is done; returns which
     episodes succeeded. ``on_start()``
     runs once the falls have settled, ``on_step(active, out)`` sees each control step's output
-    for the slots still running (diagnostics)."""
+    for the slots still running (diagnostics). With ``falls``, the settled starts named
+    ``fall_keys`` (one per slot, ``FallCache.key``) are read from the cache where present."""
     if env.cfg.eval.sensor_noise > 0:
         from selfright.policies.sensor_noise import NoisySensors
 
         policy = NoisySensors(policy, env.cfg.eval.sensor_noise, env.robot.num_joints)
     ids = np.arange(len(seeds))
-    env.reset(ids, cell_index, [np.random.default_rng(s) for s in seeds])
+    rngs = [np.random.default_rng(s) for s in seeds]
+    if falls is None:
+        env.reset(ids, cell_index, rngs)
+    else:
+        starts = falls.settle(env, cell_index, rngs, fall_keys)
+        env.begin(ids, cell_index, [env.worlds[w].model for w in cell_index], starts)
     if on_start is not None:
         on_start()
     policy.reset(ids, seeds)
@@ -151,12 +243,14 @@ def rollout_batch(
 
 def _run_batch(
     env: RecoveryEnv, policy: Policy, batch: list[tuple[int, int]], cells: list[Cell], worlds: list[World],
-    rough: list[float], seed: int,
+    rough: list[float], seed: int, falls: FallCache | None = None,
 ) -> list[dict[str, Any]]:
     """Simulate one batch of episodes to completion; returns their rows."""
     ids = np.arange(len(batch))
     seeds = np.array([episode_seed(seed, cells[k], e) for k, e in batch], dtype=np.int64)
-    success = rollout_batch(env, policy, np.array([k for k, _ in batch]), seeds, [cells[k] for k, _ in batch])
+    keys = [falls.key(worlds[k], seed, e, int(seeds[i])) for i, (k, e) in enumerate(batch)] if falls else ()
+    success = rollout_batch(env, policy, np.array([k for k, _ in batch]), seeds, [cells[k] for k, _ in batch],
+                            falls=falls, fall_keys=keys)
     m = env.metrics(ids)
     rows = []
     for i, (k, e) in enumerate(batch):

@@ -28,7 +28,8 @@ from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, to_dict
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts, StepOutput
 from selfright.env.world import build_world
 from selfright.evaluate.results import check_run_identity
-from selfright.evaluate.runner import context_config, episode_seed, prepare_out_dir, rollout_batch
+from selfright.evaluate.fall_cache import FallCache, default_cache_dir
+from selfright.evaluate.runner import Executor, context_config, episode_seed, prepare_out_dir, rollout_batch, run_batches
 from selfright.evaluate.yaw_results import (
     DIRECTIONS, EPISODE_COLUMNS, TABLE_COLUMNS, Appender, read_yaw_episodes, write_csv, yaw_table,
 )
@@ -108,15 +109,13 @@ def turn_state(state: np.ndarray, layout, slope_pct: float, target_deg: float) -
 
 
 class HeadingEnv(RecoveryEnv):
-    """``RecoveryEnv`` whose ``reset`` turns each settled fall to the heading in ``targets_deg``
-    (one per reset slot, set before each reset) before the policy starts; no further settling."""
+    """``RecoveryEnv`` whose ``begin`` turns each settled fall to the heading in ``targets_deg``
+    (one per started slot, set before each reset) before the policy starts; no further settling."""
 
     targets_deg: np.ndarray = np.zeros(0)
-    """(k,) headings (deg) of the next ``reset``'s slots."""
+    """(k,) headings (deg) of the next ``reset``'s (``begin``'s) slots."""
 
-    def reset(self, ids, world_idx, rngs, models=None) -> None:
-        models = models if models is not None else [self.worlds[w].model for w in world_idx]
-        s = self.settle(world_idx, rngs, models)
+    def begin(self, ids, world_idx, models, s: SettledStarts) -> None:
         state, sens = s.state.copy(), s.sens.copy()
         data = {}
         for k, w in enumerate(world_idx):
@@ -127,7 +126,7 @@ class HeadingEnv(RecoveryEnv):
             mujoco.mj_setState(models[k], d, state[k], STATE_SPEC)
             mujoco.mj_forward(models[k], d)
             sens[k] = d.sensordata
-        self.begin(ids, world_idx, models, SettledStarts(state=state, sens=sens, diverged=s.diverged))
+        super().begin(ids, world_idx, models, SettledStarts(state=state, sens=sens, diverged=s.diverged))
 
 
 def heading_rng(seed: int, slope_deg: float, episode: int, direction: str) -> np.random.Generator:
@@ -161,9 +160,11 @@ class YawResult:
 
 def run_yaw_study(
     policy: Policy, *, policy_name: str, slopes_deg: tuple[float, ...], episodes: int, seed: int, out_dir: Path,
-    cfg: BenchmarkConfig, progress: bool = True,
+    cfg: BenchmarkConfig, progress: bool = True, fall_cache: bool = True, executor: Executor = "local",
+    ray_address: str | None = None,
 ) -> YawResult:
-    """Run (or resume) the yaw study into ``out_dir``: ``episodes`` per slope and direction."""
+    """Run (or resume) the yaw study into ``out_dir``: ``episodes`` per slope and direction
+    (``fall_cache``, ``executor``, ``ray_address``: as for ``evaluate_grid``)."""
     if episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {episodes}")
     if not slopes_deg or any(not 0 < d < 60 for d in slopes_deg):
@@ -185,20 +186,19 @@ def run_yaw_study(
     t0 = time.time()
     rows = list(existing)
     if jobs:
-        worlds = [build_world(c, cfg, context_config(cfg), seed) for c in cells]
-        env = HeadingEnv(cfg, worlds, min(cfg.eval.batch_size, len(jobs)))
+        work = YawWork(cfg=cfg, slopes=slopes, seed=seed, num_envs=min(cfg.eval.batch_size, len(jobs)),
+                       fall_cache_dir=default_cache_dir() if fall_cache else None)
+        batches = [jobs[b : b + work.num_envs] for b in range(0, len(jobs), work.num_envs)]
         bar = tqdm(total=len(slopes) * 3 * episodes, initial=len(done), desc=f"{policy_name} yaw study", unit="ep",
                    disable=not progress)
         try:
             with Appender(csv_path, existing) as writer:
-                for b in range(0, len(jobs), env.num_envs):
-                    new = _run_batch(env, policy, jobs[b : b + env.num_envs], slopes, cells, seed)
+                for new in run_batches(work, policy, batches, executor, ray_address):
                     writer.write(new)
                     rows.extend(new)
                     bar.update(len(new))
         finally:
             bar.close()
-            env.close()
     rows.sort(key=lambda r: (slopes.index(r["slope_deg"]), DIRECTIONS.index(r["direction"]), r["episode"]))
     write_csv(csv_path, EPISODE_COLUMNS, rows)
     table = yaw_table(rows, slopes)
@@ -206,11 +206,42 @@ def run_yaw_study(
     return YawResult(out_dir=out_dir, table=table, seconds=time.time() - t0, episodes_run=len(jobs))
 
 
-def _run_batch(env: HeadingEnv, policy: Policy, batch, slopes, cells, seed: int) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class YawWork:
+    """The batches of a yaw study (``runner.Work``): one smooth incline world per slope."""
+
+    cfg: BenchmarkConfig
+    slopes: tuple[float, ...]
+    seed: int
+    num_envs: int
+    fall_cache_dir: Path | None
+    """Settled falls are read from and written to this cache; None = settle every fall."""
+
+    def open(self, threads: int | None = None) -> YawSession:
+        return YawSession(self, threads)
+
+
+class YawSession:
+    def __init__(self, work: YawWork, threads: int | None = None):
+        self.work = work
+        self.cells = [slope_cell(d) for d in work.slopes]
+        self.worlds = [build_world(c, work.cfg, context_config(work.cfg), work.seed) for c in self.cells]
+        self.env = HeadingEnv(work.cfg, self.worlds, work.num_envs, threads)
+        self.falls = None if work.fall_cache_dir is None else FallCache(work.fall_cache_dir, work.cfg)
+
+    def run(self, policy: Policy, batch: list[tuple[int, str, int]]) -> list[dict[str, Any]]:
+        return _run_batch(self.env, policy, batch, self.work.slopes, self.cells, self.work.seed, self.worlds, self.falls)
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def _run_batch(env: HeadingEnv, policy: Policy, batch, slopes, cells, seed: int, worlds=(), falls: FallCache | None = None) -> list[dict[str, Any]]:
     """Simulate one batch of (slope index, direction, episode) jobs; returns their rows."""
     n = len(batch)
     ids = np.arange(n)
     seeds = np.array([episode_seed(seed, cells[k], e) for k, _, e in batch], dtype=np.int64)
+    keys = [falls.key(worlds[k], seed, e, int(seeds[i])) for i, (k, _, e) in enumerate(batch)] if falls else ()
     env.targets_deg = np.array([draw_heading(d, heading_rng(seed, slopes[k], e, d)) for k, d, e in batch])
     pct = [cells[k].slope_pct for k, _, _ in batch]
     start_heading = np.zeros(n)
@@ -224,7 +255,7 @@ def _run_batch(env: HeadingEnv, policy: Policy, batch, slopes, cells, seed: int)
         roll[active] += out.state.ang_vel[:, 0].double().numpy() * env.control_dt
 
     success = rollout_batch(env, policy, np.array([k for k, _, _ in batch]), seeds, [cells[k] for k, _, _ in batch],
-                            on_step=on_step, on_start=on_start)
+                            on_step=on_step, on_start=on_start, falls=falls, fall_keys=keys)
     m = env.metrics(ids)
     moved = (env.goal.streak_start_xy[torch.from_numpy(ids)] - env.start_xy[torch.from_numpy(ids)]).numpy()
     rows = []
