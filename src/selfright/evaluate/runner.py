@@ -110,15 +110,11 @@ def evaluate_grid(
     rows = list(existing)
     if jobs:
         writer = EpisodeWriter(csv_path, existing)
-        batches = [jobs[b : b + work.num_envs] for b in range(0, len(jobs), work.num_envs)]
-        bar = tqdm(total=len(cells) * episodes, initial=len(done), desc=f"{policy_name} on {grid}", unit="ep", disable=not progress)
         try:
-            for new in run_batches(work, policy, batches, executor, ray_address):
-                writer.write(new)
-                rows.extend(new)
-                bar.update(len(new))
+            rows += run_jobs(work, policy, jobs, writer.write, total=len(cells) * episodes, done=len(done),
+                             desc=f"{policy_name} on {grid}", progress=progress, executor=executor,
+                             ray_address=ray_address)
         finally:
-            bar.close()
             writer.close()
     write_canonical(csv_path, rows, order)
 
@@ -166,6 +162,26 @@ def run_batches(
             yield session.run(policy, batch)
     finally:
         session.close()
+
+
+def run_jobs(
+    work: Work, policy: Policy, jobs: list, write: Callable[[list[dict[str, Any]]], None], *, total: int, done: int,
+    desc: str, progress: bool, executor: Executor = "local", ray_address: str | None = None,
+) -> list[dict[str, Any]]:
+    """Run ``jobs`` in batches of ``work.num_envs`` (``run_batches``), handing each batch's rows
+    to ``write`` as it finishes, under a progress bar of ``total`` episodes (``done`` already
+    finished); returns the new rows."""
+    batches = [jobs[b : b + work.num_envs] for b in range(0, len(jobs), work.num_envs)]
+    bar = tqdm(total=total, initial=done, desc=desc, unit="ep", disable=not progress)
+    rows: list[dict[str, Any]] = []
+    try:
+        for new in run_batches(work, policy, batches, executor, ray_address):
+            write(new)
+            rows.extend(new)
+            bar.update(len(new))
+    finally:
+        bar.close()
+    return rows
 
 
 @dataclass(frozen=True)

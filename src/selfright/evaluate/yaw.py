@@ -22,14 +22,13 @@ import mujoco
 import numpy as np
 import torch
 from scipy.spatial.transform import Rotation
-from tqdm import tqdm
 
 from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, to_dict
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts, StepOutput
 from selfright.env.world import build_world
 from selfright.evaluate.results import check_run_identity
 from selfright.evaluate.fall_cache import FallCache, default_cache_dir
-from selfright.evaluate.runner import Executor, context_config, episode_seed, prepare_out_dir, rollout_batch, run_batches
+from selfright.evaluate.runner import Executor, context_config, episode_seed, prepare_out_dir, rollout_batch, run_jobs
 from selfright.evaluate.yaw_results import (
     DIRECTIONS, EPISODE_COLUMNS, TABLE_COLUMNS, Appender, read_yaw_episodes, write_csv, yaw_table,
 )
@@ -188,17 +187,10 @@ def run_yaw_study(
     if jobs:
         work = YawWork(cfg=cfg, slopes=slopes, seed=seed, num_envs=min(cfg.eval.batch_size, len(jobs)),
                        fall_cache_dir=default_cache_dir() if fall_cache else None)
-        batches = [jobs[b : b + work.num_envs] for b in range(0, len(jobs), work.num_envs)]
-        bar = tqdm(total=len(slopes) * 3 * episodes, initial=len(done), desc=f"{policy_name} yaw study", unit="ep",
-                   disable=not progress)
-        try:
-            with Appender(csv_path, existing) as writer:
-                for new in run_batches(work, policy, batches, executor, ray_address):
-                    writer.write(new)
-                    rows.extend(new)
-                    bar.update(len(new))
-        finally:
-            bar.close()
+        with Appender(csv_path, existing) as writer:
+            rows += run_jobs(work, policy, jobs, writer.write, total=len(slopes) * 3 * episodes, done=len(done),
+                             desc=f"{policy_name} yaw study", progress=progress, executor=executor,
+                             ray_address=ray_address)
     rows.sort(key=lambda r: (slopes.index(r["slope_deg"]), DIRECTIONS.index(r["direction"]), r["episode"]))
     write_csv(csv_path, EPISODE_COLUMNS, rows)
     table = yaw_table(rows, slopes)
