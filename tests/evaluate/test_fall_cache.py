@@ -2,7 +2,6 @@
 and the key changes with everything a settled fall depends on and nothing else."""
 
 import dataclasses
-import hashlib
 from pathlib import Path
 
 import numpy as np

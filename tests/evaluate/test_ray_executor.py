@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 
 from selfright.config import BenchmarkConfig, GoalConfig, SimConfig
-from selfright.evaluate.results import read_episodes
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.base import Policy
 from selfright.policies.registry import make_policy

@@ -23,7 +23,7 @@ from selfright.env.rewards import RewardConfig
 from selfright.evaluate.runner import evaluate_grid
 from selfright.policies.learned import load_policy_file
 from selfright.train.commands import ExportArgs, export
-from selfright.train.config import DistillationConfig, EpisodeConfig, PPOConfig, TrainConfig, ValidationConfig
+from selfright.train.config import DistillationConfig, EpisodeConfig, PPOConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds
 from selfright.policies.run_files import list_checkpoints
 from selfright.train.runner import RunSpec, TrainingRun

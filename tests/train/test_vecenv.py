@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import dataclasses
-import math
 from types import SimpleNamespace
 
 import mujoco
@@ -14,7 +13,6 @@ import pytest
 import torch
 
 from selfright.config import BenchmarkConfig
-from selfright.env.rewards import RewardConfig
 from selfright.env.randomization import DCMOTOR_KD, DCMOTOR_KP, ModelRandomizer, sample_factors
 from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
@@ -205,7 +203,6 @@ def test_incline_curriculum_levels_move_with_the_goal_window():
     assert env.curriculum and (torch.from_numpy(env.env.world_idx) == 0).all()  # everyone starts easy
     ids = torch.arange(3)
     env.tail_goal_steps[:] = torch.tensor([env.window, env.window, 0])
-    no = torch.zeros(3, dtype=torch.bool)  # none stopped on success
 
     def update(rows, left_tile):
         env._update_levels(rows, env._ended_in_goal(rows), left_tile)

@@ -20,7 +20,7 @@ from selfright.env.goal import GoalTracker, robot_in_goal_set
 from selfright.env.observations import privileged_obs, scan_points, student_obs
 from selfright.env.robot_state import RobotState, decode
 from selfright.env.world import World
-from selfright.robots import RobotSpec, get_robot
+from selfright.robots import get_robot
 from selfright.sim.batch import BatchStepper, sensor_layout, state_layout
 from selfright.terrain.heightfield import sample_heights
 

@@ -181,7 +181,6 @@ def run_yaw_study(
     existing = [r for r in read_yaw_episodes(csv_path) if r["slope_deg"] in slopes and r["episode"] < episodes]
     done = {(r["slope_deg"], r["direction"], r["episode"]) for r in existing}
     jobs = [(k, d, e) for k, deg in enumerate(slopes) for d in DIRECTIONS for e in range(episodes) if (deg, d, e) not in done]
-    cells = [slope_cell(d) for d in slopes]
     t0 = time.time()
     rows = list(existing)
     if jobs:
