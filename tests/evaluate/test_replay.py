@@ -19,7 +19,7 @@ from selfright.evaluate.runner import evaluate_grid
 from selfright.plots.trace import plot_trace
 from selfright.policies.registry import make_policy
 
-CFG = BenchmarkConfig(goal=GoalConfig(episode_s=2.5, hold_s=0.5))  # short enough that `rough` misses some on the plane
+CFG = BenchmarkConfig(goal=GoalConfig(episode_s=3.0, hold_s=0.5))  # short enough that `rough` misses some on the plane
 
 
 @pytest.fixture(scope="module")

@@ -134,14 +134,15 @@ def test_bad_files_raise_value_error(tmp_path: Path, name: str):
     assert "\n" not in msg and str(path) in msg
 
 
-def test_actor_rows_do_not_depend_on_the_batch():
-    """``forward_rows`` gives each row the same bits whatever rows share its batch (a batched
-    matrix product does not: BLAS sums in a batch-size-dependent order), and agrees with
-    ``forward``."""
+@pytest.mark.parametrize("width", [79, 1125])
+def test_actor_rows_do_not_depend_on_the_batch(width: int):
+    """``forward_rows`` gives each row the same bits whatever rows share its batch and wherever
+    it falls in a block (a batched matrix product does not: BLAS sums in a batch-size-dependent
+    order), and agrees with ``forward``; 1125 = a 25-frame student history."""
     from selfright.policies.learned import TorchPolicy
 
-    actor = actor_from_checkpoint({"actor_state_dict": rsl_actor(79, "teacher").state_dict()})
-    x = random_obs(200, 79, seed=3)
+    actor = actor_from_checkpoint({"actor_state_dict": rsl_actor(width, "teacher").state_dict()})
+    x = random_obs(200, width, seed=3)
     alone = torch.cat([actor.forward_rows(x[i : i + 1]) for i in range(70)])
     with torch.no_grad():
         torch.testing.assert_close(actor.forward_rows(x), actor(x), atol=1e-5, rtol=0)
