@@ -91,17 +91,17 @@ def test_evaluate_end_to_end_with_plots(tmp_path, capsys):
 def test_action_reference_must_match_the_policy(tmp_path, capsys):
     code, cap = run_cli(["evaluate", "--policy", "flat", "--grid", "tiny", "--episodes", "1", "--action-reference", "current",
                          "--out", str(tmp_path / "o")], capsys)
-    assert_clean_error(code, cap, "--action-reference stand")
+    assert_clean_error(code, cap, "--action-reference tall")
 
 
 def test_student_must_use_its_teachers_action_reference(tmp_path, capsys):
     from pathlib import Path
 
-    teacher = Path(__file__).resolve().parent.parent / "runs" / "flat_teacher_best"  # committed, a stand-reference run
+    teacher = Path(__file__).resolve().parent.parent / "runs" / "flat_teacher_v1_scratch"  # committed, a tall-reference run
     code, cap = run_cli(["train", "--role", "student", "--context", "flat", "--teacher", str(teacher),
-                         "--out", str(tmp_path / "s"), "--envs", "2", "--iterations", "1", "--action-reference", "tall"],
+                         "--out", str(tmp_path / "s"), "--envs", "2", "--iterations", "1", "--action-reference", "stand"],
                         capsys)
-    assert_clean_error(code, cap, "--action-reference stand")
+    assert_clean_error(code, cap, "--action-reference tall")
 
 
 def test_evaluate_with_dc_motors_records_the_motor_model(tmp_path, capsys):
@@ -110,7 +110,7 @@ def test_evaluate_with_dc_motors_records_the_motor_model(tmp_path, capsys):
                          "--motor", "dcmotor", "--out", str(out), "--no-progress", "--no-plots"], capsys)
     assert code == 0, cap.err
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["config"]["robot"]["motor"] == "dcmotor" and summary["machine"]["cores"] >= 1
+    assert summary["config"]["robot"]["motor"] == "dcmotor" and summary["machine"]["cores"] >= 1 and len(summary["machine"]["date"]) == 10
 
 
 

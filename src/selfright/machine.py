@@ -7,6 +7,7 @@ that into other outcomes; docs/benchmark.md, *Seeds and determinism*), so evalua
 
 from __future__ import annotations
 
+import datetime
 import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
@@ -41,5 +42,6 @@ def versions() -> dict[str, str]:
 
 
 def machine() -> dict[str, Any]:
-    """CPU model, logical cores and library versions, for a results file."""
-    return {"cpu": cpu_model(), "cores": os.cpu_count(), "versions": versions()}
+    """CPU model, logical cores, library versions and today's date (UTC), for a results file."""
+    today = datetime.datetime.now(datetime.timezone.utc).date().isoformat()
+    return {"cpu": cpu_model(), "cores": os.cpu_count(), "versions": versions(), "date": today}

@@ -91,6 +91,7 @@ class ShiftedReference(Policy):
         self.inner = inner
         self.name = inner.name
         self.groups = inner.groups
+        self.digest = inner.digest  # the weights are the inner policy's
         self.action_mapping = env_mapping
         self.offset = torch.as_tensor(offset, dtype=torch.float32)
         self.fresh: set[int] = set()

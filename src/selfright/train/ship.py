@@ -253,6 +253,7 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     ttr = "n/a" if o.get("ttr_mean_s") is None else f"{o['ttr_mean_s']:.2f} s"
     dtr = "n/a" if o.get("dtr_mean_m") is None else f"{o['dtr_mean_m']:.2f} m"
     cpu = (summary.get("machine") or {}).get("cpu")
+    date = (summary.get("machine") or {}).get("date")
     motor = (((summary.get("config") or {}).get("robot") or {}).get("motor")) or RobotConfig.motor
     flags = "" if motor == RobotConfig.motor else f" --motor {motor}"
     noise = recorded_sensor_noise(summary)
@@ -264,7 +265,7 @@ def success_lines(name: str, summary: dict[str, Any]) -> list[str]:
     return [
         f"{SUCCESS_PREFIX} (`--grid {summary.get('grid')}`" + words + f", N = {o['n']}): "
         f"**{100 * o['success_rate']:.1f} %** (95 % Wilson interval {100 * lo:.0f}–{100 * hi:.0f} %), "
-        f"mean TTR {ttr}, mean DTR {dtr}" + (f"; measured on {cpu}" if cpu else ""),
+        f"mean TTR {ttr}, mean DTR {dtr}" + (f"; measured{' ' + date if date else ''} on {cpu}" if cpu else ""),
         f"{SEED_PREFIX}: {summary.get('seed', 0)}; {summary.get('episodes_per_cell')} episodes per cell; "
         f"reproduce with `selfright evaluate --policy {name} --grid {summary.get('grid')} "
         f"--episodes {summary.get('episodes_per_cell')} --seed {summary.get('seed', 0)}{flags}`",
