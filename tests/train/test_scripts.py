@@ -395,3 +395,23 @@ def test_mjx_throughput_benchmark_runs_where_jax_is_installed(monkeypatch, capsy
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines() if line.startswith("{")]
     assert rows[1]["context"] == "flat" and rows[1]["mjx_nonfinite_envs"] == 0
     assert rows[1]["mjx_physics_steps_per_s"] > 0 and rows[1]["mean_abs_dz_m"] < 0.05
+
+
+def test_check_replays_measures_a_success_over_its_feet_with_mujoco_alone(tmp_path, capsys):
+    """A replayed success of the shipped `flat` passes the 0.32 m bar through its hold, measured
+    from its trajectory.npz and scene.xml; the same record under a 1 m bar fails with exit 1."""
+    from selfright.config import BenchmarkConfig
+    from selfright.evaluate.replay import replay_episode, select_cell, write_replay
+    from selfright.policies.registry import make_policy
+
+    cfg = BenchmarkConfig()
+    r = replay_episode(make_policy("flat", cfg), cfg, select_cell("flat", cfg, None, None), 0, seed=1000)
+    assert r.success  # episode 0 of seed 1000 gets up (the card's evaluation)
+    write_replay(tmp_path / "r", r, {"policy": "flat", "grid": "flat", "seed": 1000}, cfg)
+    check = runpy.run_path(str(SCRIPTS / "check_replays.py"))
+    meta, heights = check["hold_heights"](tmp_path / "r")
+    assert len(heights) == round(cfg.goal.hold_s / cfg.sim.control_dt_s)
+    # selfright's own record of the hold agrees with MuJoCo's positions
+    assert heights.min() == pytest.approx(meta["hold_min_height_over_feet_m"], abs=1e-6)
+    assert check["main"]([str(tmp_path / "r")]) == 0 and "ok" in capsys.readouterr().out
+    assert check["main"]([str(tmp_path / "r"), "--bar-m", "1.0"]) == 1
