@@ -53,23 +53,28 @@ def test_tall_policy_in_a_stand_env_moves_as_in_its_own():
 
 
 def test_shift_contract():
-    """Actions are shifted by (tall − stand) / scale; the observed previous action is shifted
-    back, except on an episode's first step (the env's 0 = "none yet")."""
+    """Actions are clipped in the policy's own units and shifted by (tall − stand) / scale; the
+    previous action it observes is its own clipped one, whatever the env reports, except on an
+    episode's first step (the env's 0 = "none yet")."""
     seen = []
-    inner = CallablePolicy(lambda o: seen.append(o.clone()) or torch.zeros(len(o), 12), name="rec")
+    own = torch.full((12,), 0.3)
+    own[2] = 12.0  # saturates: beyond the ±10 clip
+    inner = CallablePolicy(lambda o: seen.append(o.clone()) or own.expand(len(o), 12).clone(), name="rec")
     inner.action_mapping = ("tall", 0.5)
     adapted = check_action_mapping(inner, ActionConfig(reference="stand"), "rec")
     robot = get_robot("a1")
     np.testing.assert_allclose(robot.stand_pose + 0.5 * adapted.offset.numpy(), robot.tall_pose, atol=1e-7)
-    obs = {"student": torch.zeros(2, 42)}
+    clipped = own.clamp(-10.0, 10.0)
     adapted.reset(np.array([0, 1]))
-    a = adapted.act(obs, np.array([0, 1]), [None, None])
-    torch.testing.assert_close(a, adapted.offset.expand(2, 12))
+    a = adapted.act({"student": torch.zeros(2, 42)}, np.array([0, 1]), [None, None])
+    torch.testing.assert_close(a, (clipped + adapted.offset).expand(2, 12))
     adapted.reset(np.array([1]))  # slot 1 starts a new episode, slot 0 goes on
-    adapted.act(obs, np.array([0, 1]), [None, None])
+    env_obs = torch.zeros(2, 42)
+    env_obs[0, 30:42] = 99.0  # what the env reports is not what the policy observes
+    adapted.act({"student": env_obs}, np.array([0, 1]), [None, None])
     assert torch.all(seen[0] == 0)
-    torch.testing.assert_close(seen[1][0, 30:42], -adapted.offset)
-    assert torch.all(seen[1][1] == 0)
+    torch.testing.assert_close(seen[1][0, 30:42], clipped)
+    assert torch.all(seen[1][0, :30] == 0) and torch.all(seen[1][1] == 0)
 
 
 def test_multiplexer_policies_are_adapted_one_by_one_and_current_is_refused():

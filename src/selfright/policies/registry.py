@@ -60,7 +60,7 @@ def check_action_mapping(policy: Policy, action: ActionConfig, name: str, robot_
             f"actions as {action.reference} + {action.scale_rad} rad × action; evaluate it with "
             f"--action-reference {ref} (API: BenchmarkConfig(action=ActionConfig(reference={ref!r})))"
         ) from None
-    return policy if offset is None else ShiftedReference(policy, offset, (action.reference, action.scale_rad))
+    return policy if offset is None else ShiftedReference(policy, offset, (action.reference, action.scale_rad), action.clip)
 
 
 def make_policy(name: str, cfg: BenchmarkConfig) -> Policy:
