@@ -411,7 +411,8 @@ def test_check_replays_measures_a_success_over_its_feet_with_mujoco_alone(tmp_pa
     check = runpy.run_path(str(SCRIPTS / "check_replays.py"))
     meta, heights = check["hold_heights"](tmp_path / "r")
     assert len(heights) == round(cfg.goal.hold_s / cfg.sim.control_dt_s)
-    # selfright's own record of the hold agrees with MuJoCo's positions
-    assert heights.min() == pytest.approx(meta["hold_min_height_over_feet_m"], abs=1e-6)
+    # selfright's record of the hold agrees with MuJoCo's positions; it reads the kinematics that
+    # mj_step computed before its last integration, one physics step (a fraction of a mm) earlier
+    assert heights.min() == pytest.approx(meta["hold_min_height_over_feet_m"], abs=2e-3)
     assert check["main"]([str(tmp_path / "r")]) == 0 and "ok" in capsys.readouterr().out
     assert check["main"]([str(tmp_path / "r"), "--bar-m", "1.0"]) == 1
