@@ -179,24 +179,22 @@ def mlp_layers(width: int, hidden: tuple[int, ...], out: int, activation: str) -
 def _sequential_rows(seq: nn.Sequential, x: torch.Tensor) -> torch.Tensor:
     """``seq(x)`` for x (k, D) of linear layers and elementwise activations, row by row (see
     ``ActorMLP.forward_rows``)."""
-    x = x.unsqueeze(1)
     for layer in seq:
         if isinstance(layer, nn.Linear):
             x = _linear_rows(x, layer.weight, layer.bias)
         else:
-            x = _padded_rows(layer, x.squeeze(1)).unsqueeze(1)  # elementwise activation
-    return x.squeeze(1)
+            x = _padded_rows(layer, x)  # elementwise activation
+    return x
 
 
 def _linear_rows(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor) -> torch.Tensor:
-    """``x @ weight.T + bias`` for x (k, 1, D), in zero-padded (ROW_BLOCK, D) @ (D, H) blocks.
+    """``x @ weight.T + bias`` for x (k, D), in zero-padded (ROW_BLOCK, D) @ (D, H) blocks.
     The bias is added after the product (an addition rounds the same on every code path)."""
     k = x.shape[0]
     kp = -(-max(k, 1) // ROW_BLOCK) * ROW_BLOCK
-    xp = torch.nn.functional.pad(x.squeeze(1), (0, 0, 0, kp - k))
+    xp = torch.nn.functional.pad(x, (0, 0, 0, kp - k))
     wt = weight.t()
-    y = torch.cat([xp[i : i + ROW_BLOCK] @ wt for i in range(0, kp, ROW_BLOCK)])[:k]
-    return (y + bias).unsqueeze(1)
+    return torch.cat([xp[i : i + ROW_BLOCK] @ wt for i in range(0, kp, ROW_BLOCK)])[:k] + bias
 
 
 def _padded_rows(fn: Callable[[torch.Tensor], torch.Tensor], x: torch.Tensor) -> torch.Tensor:
