@@ -143,3 +143,16 @@ def test_weights_come_from_config():
     cfg = RewardConfig(orientation=0.0, feet_contact=1.0)
     w = R.reward_weights(cfg)
     assert w["orientation"] == 0.0 and w["feet_contact"] == 1.0 and w["base_height"] == 40.0
+
+
+def test_goal_set_term_only_with_a_weight():
+    in_goal = torch.tensor([True, False, True])
+    ctx = dataclasses.replace(make_ctx(), in_goal=in_goal)
+    assert "goal_set" not in R.reward_terms(make_state(), ctx, RewardConfig())
+    cfg = RewardConfig(goal_set=5.0)
+    base, _ = R.weighted_rewards(make_state(), ctx, RewardConfig(), 0.02)
+    total, terms = R.weighted_rewards(make_state(), ctx, cfg, 0.02)
+    torch.testing.assert_close(terms["goal_set"], torch.tensor([0.1, 0.0, 0.1]))
+    torch.testing.assert_close(total - base, torch.tensor([0.1, 0.0, 0.1]))
+    with pytest.raises(ValueError, match="in_goal"):
+        R.reward_terms(make_state(), make_ctx(), cfg)

@@ -163,6 +163,8 @@ ADDED_AS_BEFORE = {
     "train_config.episode.prepare_starts": False,
     "train_config.recenter_on_init": False,
     "train_config.distillation.stance_weight": 1.0,
+    "train_config.randomization.sensor_noise": 0.0,
+    "train_config.reward.goal_set": 0.0,
     "benchmark_config.robot.motor": "ideal",
     "benchmark_config.robot.motor_speed_rad_s": None,
     "benchmark_config.robot.joint_stop_timeconst_s": 0.02,

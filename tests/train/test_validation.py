@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
+import pytest
 import torch
 
 from selfright.train import validation
-from selfright.train.config import ValidationConfig
+from selfright.train.config import RandomizationConfig, ValidationConfig
+from selfright.train.runner import TrainingRun
 from selfright.train.validation import Score, best_score, read_scores, record
 
-from test_learning_smoke import TINY, run, spec
+from test_learning_smoke import CFG, TINY, run, spec
 
 
 def test_best_score_prefers_higher_then_earlier():
@@ -48,6 +51,29 @@ def test_training_validates_each_checkpoint(tmp_path: Path):
     assert [s.iteration for s in scores] == [0, 1]
     assert all(s.episodes >= 1 and 0.0 <= s.success_rate <= 1.0 and s.env_steps > 0 for s in scores)
     assert (out / validation.BEST_FILE).exists() and (out / "validation" / "model_1" / "summary.json").exists()
+
+
+def test_a_student_trained_under_sensor_noise_is_validated_under_it(tmp_path: Path):
+    """``--train.randomization.sensor-noise``: the student's checkpoints are scored through the
+    same noise (each validation's summary.json records it), train_meta.json records it, and a
+    teacher run refuses it before writing anything."""
+    noisy = dataclasses.replace(TINY, randomization=RandomizationConfig(sensor_noise=0.5))
+    with pytest.raises(ValueError, match="applies to students; a teacher reads privileged, exact observations"):
+        TrainingRun(spec(tmp_path / "refused", train=noisy)).setup()
+    assert not (tmp_path / "refused").exists()
+    teacher = tmp_path / "teacher"
+    run(spec(teacher))
+    student = tmp_path / "student"
+    train = dataclasses.replace(noisy, validation=ValidationConfig(episodes=1, grid="tiny"))
+    r = run(spec(student, role="student", teacher=teacher, train=train))
+    assert r.validation_bench().eval.sensor_noise == 0.5 and r.spec.bench.eval.sensor_noise == 0.0
+    summary = json.loads((student / "validation" / "model_0" / "summary.json").read_text())
+    assert summary["config"]["eval"]["sensor_noise"] == 0.5
+    meta = json.loads((student / "train_meta.json").read_text())
+    assert meta["train_config"]["randomization"]["sensor_noise"] == 0.5
+    assert meta["benchmark_config"]["eval"]["sensor_noise"] == 0.0  # the benchmark itself stays exact
+    off = dataclasses.replace(train, randomization=RandomizationConfig(sensor_noise=0.5, enabled=False))
+    assert TrainingRun(spec(tmp_path / "off", role="student", teacher=teacher, train=off)).validation_bench() == CFG
 
 
 

@@ -13,10 +13,11 @@ import pytest
 import torch
 
 from selfright.config import BenchmarkConfig
+from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import DCMOTOR_KD, DCMOTOR_KP, ModelRandomizer, sample_factors
 from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
-from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
+from selfright.train.config import LABEL_GROUP, EpisodeConfig, RandomizationConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_cells
 from selfright.train.vecenv import RecoveryVecEnv
 
@@ -294,6 +295,90 @@ def test_student_history_group_stacks_frames_and_restarts_with_the_episode(flat_
     assert dones.all()
     torch.testing.assert_close(obs["student_history"], obs["student"].repeat(1, 3))
     env.close()
+
+
+def noisy_train(noise: float, **randomization) -> TrainConfig:
+    """Default training with ``sensor_noise`` = ``noise`` and a 2-frame student history."""
+    return dataclasses.replace(
+        TrainConfig(), randomization=RandomizationConfig(sensor_noise=noise, **randomization),
+        distillation=dataclasses.replace(TrainConfig().distillation, student_history=2))
+
+
+def rollout(train: TrainConfig, worlds, n: int, steps: int, seed: int = 5) -> list[dict]:
+    """The observation groups and robot states of ``steps`` + 1 control steps of ``n`` envs under
+    the same fixed actions (drawn from their own generator); the labels' group stacks 2 frames."""
+    env = RecoveryVecEnv(CFG, train, worlds, num_envs=n, seed=seed, label_history=2)
+    actions = torch.from_numpy(np.random.default_rng(7).uniform(-1, 1, (steps, n, 12))).float()
+    out = [{**env.get_observations().to_dict(), "state": env.env.state.copy()}]
+    with torch.inference_mode():
+        for a in actions:
+            obs, rew, dones, _ = env.step(a)
+            assert not dones.any()
+            out.append({**obs.to_dict(), "state": env.env.state.copy(), "reward": rew})
+    env.close()
+    return out
+
+
+def test_sensor_noise_must_be_finite_and_not_negative():
+    for bad in (-0.1, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="sensor-noise must be a finite number >= 0"):
+            RandomizationConfig(sensor_noise=bad)
+    assert RandomizationConfig(sensor_noise=0.5).active_sensor_noise == 0.5
+    assert RandomizationConfig(sensor_noise=0.5, enabled=False).active_sensor_noise == 0.0
+
+
+def test_no_sensor_noise_leaves_the_observations_exact(flat_worlds):
+    """At 0 (or with randomisation off) every group is what ``RecoveryEnv.observe`` reads off the
+    states, the student history stacks those exact frames, and nothing is drawn for noise."""
+    for train in (noisy_train(0.0), noisy_train(1.0, enabled=False)):
+        env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=3, seed=2)
+        assert env.sensor_noise_std is None
+        before = env.noise_rng.bit_generator.state
+        with torch.inference_mode():
+            prev = env.get_observations()["student"]
+            obs, _, _, _ = env.step(torch.zeros(3, 12))
+        exact = env.env.observe()
+        torch.testing.assert_close(obs["student"], exact["student"], rtol=0, atol=0)
+        torch.testing.assert_close(obs["teacher"], exact["teacher"], rtol=0, atol=0)
+        torch.testing.assert_close(obs["student_history"], torch.cat([prev, exact["student"]], dim=1), rtol=0, atol=0)
+        assert env.noise_rng.bit_generator.state == before
+        env.close()
+
+
+def test_sensor_noise_reaches_the_student_only_at_its_scale_and_leaves_the_episodes_alone(flat_worlds):
+    """``--train.randomization.sensor-noise``: the ``student`` group and its history frames read
+    noisy sensors, S × ``sensor_noise_std`` per column (none on the previous action); the teacher
+    group, the labels' exact frames, the physics and the rewards are those of the run without noise."""
+    n, steps, scale = 32, 6, 0.5
+    clean = rollout(noisy_train(0.0), flat_worlds, n, steps)
+    noisy = rollout(noisy_train(scale), flat_worlds, n, steps)
+    for c, z in zip(clean, noisy):
+        np.testing.assert_array_equal(z["state"], c["state"])
+        for group in ("teacher", LABEL_GROUP):
+            torch.testing.assert_close(z[group], c[group], rtol=0, atol=0)
+        if "reward" in c:
+            torch.testing.assert_close(z["reward"], c["reward"], rtol=0, atol=0)
+        torch.testing.assert_close(z["student_history"][:, 42:], z["student"], rtol=0, atol=0)
+    for k in range(1, len(noisy)):  # the history's older frame is the step before's noisy one
+        torch.testing.assert_close(noisy[k]["student_history"][:, :42], noisy[k - 1]["student"], rtol=0, atol=0)
+    residual = torch.cat([z["student"] - c["student"] for c, z in zip(clean, noisy)]).double()  # ((steps + 1) n, 42)
+    want = scale * sensor_noise_std(12).double()
+    assert residual.abs().mean(dim=0).tolist() == pytest.approx(
+        (want * np.sqrt(2 / np.pi)).tolist(), rel=0.2)  # the Gaussian's mean absolute value
+    got = residual.std(dim=0)
+    for cols in (slice(0, 3), slice(3, 6), slice(6, 18), slice(18, 30)):  # gravity, gyro, joint angles, speeds
+        assert float(got[cols].square().mean().sqrt()) == pytest.approx(float(want[cols][0]), rel=0.1), cols
+    assert (residual[:, 30:] == 0).all()  # the previous action is the policy's own
+
+
+def test_sensor_noise_is_drawn_the_same_for_the_same_seed(flat_worlds):
+    a = rollout(noisy_train(1.0), flat_worlds, 4, 3)
+    b = rollout(noisy_train(1.0), flat_worlds, 4, 3)
+    other = rollout(noisy_train(1.0), flat_worlds, 4, 3, seed=6)
+    for x, y in zip(a, b):
+        for group in ("student", "student_history", "teacher"):
+            torch.testing.assert_close(x[group], y[group], rtol=0, atol=0)
+    assert not torch.equal(a[0]["student"], other[0]["student"])
 
 
 @pytest.mark.parametrize("share", [1.0, 0.0])

@@ -1,14 +1,17 @@
-"""Per-episode domain randomisation: ground friction, PD gains and robot masses.
+"""Per-episode domain randomisation: ground friction, PD gains and robot masses; per-step
+sensor noise on the student's observation.
 
 Factors are drawn uniformly from ``RandomizationConfig`` with an explicit generator and
 written into a private copy of the episode's ``MjModel`` (``RecoveryEnv.reset`` accepts one
 model per slot). The same factors go into ``RecoveryEnv.factors`` / ``RecoveryEnv.friction``,
-which the teacher observes.
+which the teacher observes. The sensor noise (``RandomizationConfig.sensor_noise``) is added
+by ``selfright.train.vecenv`` to the ``student`` observation group.
 """
 
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -33,6 +36,23 @@ class RandomizationConfig:
     """PD damping multiplier ~ U(low, high) (dimensionless)."""
     mass_scale: tuple[float, float] = (0.9, 1.1)
     """Multiplier of every robot body's mass and inertia ~ U(low, high) (dimensionless)."""
+    sensor_noise: float = 0.0
+    """Additive Gaussian noise on the ``student`` observation group each control step (and so on
+    the student's history frames), as a multiple of ``selfright.env.observations.SENSOR_NOISE_STD``
+    (at 1: IMU gravity 0.05, gyro 0.2 rad/s, joint angles 0.01 rad, joint speeds 1.5 rad/s; none
+    on the previous action). The teacher group and distillation labels stay exact. Students only
+    (a teacher run refuses it); they are validated under the same noise. 0 (or ``enabled``
+    off) = exact sensors."""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.sensor_noise) and self.sensor_noise >= 0.0):
+            raise ValueError(f"--train.randomization.sensor-noise must be a finite number >= 0 "
+                             f"(a multiple of the sensors' noise std; 0 = exact sensors), got {self.sensor_noise}")
+
+    @property
+    def active_sensor_noise(self) -> float:
+        """``sensor_noise`` when randomisation is on, else 0 (``enabled`` off turns it off too)."""
+        return self.sensor_noise if self.enabled else 0.0
 
 
 @dataclass(frozen=True)

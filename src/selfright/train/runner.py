@@ -168,6 +168,9 @@ class TrainingRun:
         has_ckpt = bool(list_checkpoints(self.out))
         if s.resume and not has_ckpt:
             raise ValueError(f"--resume: no checkpoint in {self.out}; drop --resume to start a new run")
+        if s.train.randomization.sensor_noise > 0 and s.role != "student":
+            raise ValueError("--train.randomization.sensor-noise applies to students; a teacher reads privileged, "
+                             "exact observations")
         d = s.train.distillation
         if d.stance_ramp_s > 0 and s.role != "student":
             raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
@@ -455,6 +458,17 @@ class TrainingRun:
         self.last_ckpt_time = time.time()
         return path
 
+    def validation_bench(self) -> BenchmarkConfig:
+        """The benchmark configuration checkpoints are validated in: the run's, and for a student
+        trained under sensor noise (``RandomizationConfig.sensor_noise``) that noise as
+        ``EvalConfig.sensor_noise``, so the best checkpoint is chosen under the sensors it trained
+        for (each evaluation's ``summary.json`` records it)."""
+        bench = self.spec.bench
+        noise = self.spec.train.randomization.active_sensor_noise
+        if noise > 0 and self.spec.role == "student":
+            bench = replace(bench, eval=replace(bench.eval, sensor_noise=noise))
+        return bench
+
     def _validate(self, ckpt: Path, it: int, env_steps: int) -> None:
         """Benchmark the checkpoint just saved (``TrainConfig.validation``); keep the best."""
         v = self.spec.train.validation
@@ -462,7 +476,8 @@ class TrainingRun:
             return
         from selfright.train import validation
 
-        bench = self.spec.bench
+        bench = self.validation_bench()
+        noise = bench.eval.sensor_noise
         t = time.time()
         # Loading the checkpoint builds networks from torch's global generator, which also draws
         # the training's action noise; checkpoints fall on a wall-clock timer, so without the fork
@@ -482,6 +497,7 @@ class TrainingRun:
                 f"[{self.spec.role}/{self.spec.context}] validation of {ckpt.name}"
                 + f": {score.successes}/{score.episodes} "
                 f"= {100 * score.success_rate:.1f} % (seed {v.seed}"
+                + (f", sensor noise x{noise:g}" if noise > 0 else "")
                 + f", {time.time() - t:.0f} s)"
                 + (f"; best so far -> {validation.BEST_FILE}" if best else ""),
                 flush=True,

@@ -6,7 +6,9 @@ Why: off the flat plane the teachers' return keeps rising while their benchmark 
 falls (Table I pays for four feet on the ground, not for the goal set), so the last
 checkpoint is rarely the best one. Validation uses its own seed (default 1), never the
 model card's seed 0, and the same episodes for every checkpoint, so checkpoints are compared
-on identical falls and the reported number is not the one the choice was made on.
+on identical falls and the reported number is not the one the choice was made on. A student
+trained under sensor noise (``RandomizationConfig.sensor_noise``) is validated under the same
+noise (``EvalConfig.sensor_noise``, recorded in each ``summary.json``).
 
 Files in the run folder::
 

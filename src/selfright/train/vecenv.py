@@ -33,6 +33,7 @@ from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import body_height, goal_height_m, upright
+from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv, SettledStarts
 from selfright.env.rewards import RewardContext, reward_weights, weighted_rewards
@@ -44,6 +45,9 @@ from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckE
 
 if TYPE_CHECKING:
     from selfright.env.robot_state import RobotState
+
+SENSOR_NOISE_STREAM = 0x5E45
+"""Appended to the run's seed to key the sensor noise's generator (``RecoveryVecEnv.noise_rng``)."""
 
 
 class RecoveryVecEnv(VecEnv):
@@ -61,6 +65,10 @@ class RecoveryVecEnv(VecEnv):
             networks' device; the simulation and its bookkeeping stay on the CPU).
         label_history: frames of the exact student observation to stack as group
             ``LABEL_GROUP`` (0 = none), for a student labelling a stance distillation.
+
+    With ``RandomizationConfig.sensor_noise`` > 0 the ``student`` group (and the student's
+    history frames) read noisy sensors, from a generator of their own; the ``teacher`` group
+    and ``LABEL_GROUP`` stay exact.
     """
 
     def __init__(
@@ -84,6 +92,12 @@ class RecoveryVecEnv(VecEnv):
         self.max_episode_length = int(round(train.episode.episode_s / self.dt))
         self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long)
         self.rng = np.random.default_rng(seed)
+        noise = train.randomization.active_sensor_noise
+        self.sensor_noise_std = noise * sensor_noise_std(self.env.robot.num_joints) if noise > 0 else None
+        """(6 + 3J,) std of the sensor noise on each ``student`` column; None = exact sensors."""
+        self.noise_rng = np.random.default_rng([*np.atleast_1d(seed).tolist(), SENSOR_NOISE_STREAM])
+        """The sensor noise's own generator: turning the noise on leaves every episode's draws
+        (worlds, falls, factors) as they were."""
         self.randomizer = ModelRandomizer(worlds[0].model, self.env.robot) if train.randomization.enabled else None
         robot = self.env.robot
         self.joint_low = torch.tensor(robot.joint_low, dtype=torch.float32)
@@ -261,9 +275,15 @@ class RecoveryVecEnv(VecEnv):
 
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
+        """The observation groups of the current states. The labels' frames take the exact
+        ``student`` observation; the sensor noise (``RandomizationConfig.sensor_noise``) then
+        goes onto the ``student`` group, and so into the student's history frames."""
         groups = self.env.observe()
         if self.label_frames is not None:
             groups[LABEL_GROUP] = self.label_frames.push(np.arange(self.num_envs), groups["student"])
+        if self.sensor_noise_std is not None:
+            z = self.noise_rng.standard_normal(tuple(groups["student"].shape), dtype=np.float32)
+            groups["student"] = groups["student"] + self.sensor_noise_std * torch.from_numpy(z)
         if self.student_frames is not None:
             groups[student_group(self.student_frames.frames)] = self.student_frames.push(np.arange(self.num_envs), groups["student"])
         return TensorDict(groups, batch_size=[self.num_envs]).to(self.device)
@@ -291,6 +311,7 @@ class RecoveryVecEnv(VecEnv):
             joint_low=self.joint_low,
             joint_high=self.joint_high,
             target_height_m=self.target_height_m,
+            in_goal=out.in_goal,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
