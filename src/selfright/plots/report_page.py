@@ -66,7 +66,13 @@ def policy_figures(folder: Path, name: str, boxes: list[dict[str, Any]]) -> list
     grid = build_grid(cells)
     drawn = grid_boxes(grid, cells, boxes)
     tag = f"{name} on {summary['grid']}, {summary['episodes_per_cell']} episodes/cell"
-    blocks: list[Block] = [("h2", f"Policy {name}")]
+    o = summary["overall"]
+    blocks: list[Block] = [
+        ("h2", f"Policy {name}"),
+        ("p", f"Overall: {o['successes']} of {o['n']} episodes recovered ({100 * o['success_rate']:.1f} %). "
+              f"Data: [{folder.name}/summary.json]({folder.name}/summary.json), "
+              f"[{folder.name}/episodes.csv]({folder.name}/episodes.csv)."),
+    ]
     for fig, key, scale, title, label, fmt, cmap, (lo, hi) in HEATMAPS:
         heatmap(grid, grid.values(key, scale), title=f"{title}\n{tag}", cbar_label=label, fmt=fmt, cmap_name=cmap,
                 vmin=lo, vmax=hi, path=folder / f"report_{fig}.png", boxes=drawn, compact=True)
@@ -77,10 +83,6 @@ def policy_figures(folder: Path, name: str, boxes: list[dict[str, Any]]) -> list
         histogram(read_successful(episodes, col), bin_width=width, xlabel=label, path=folder / f"report_{fig}.png",
                    title=f"{label[0].upper()}{label[1:]}, successful episodes, bins of {width:g}\n{tag}")
         blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{label}, bins of {width:g}")))
-    o = summary["overall"]
-    blocks.append(("p", f"Overall: {o['successes']} of {o['n']} episodes recovered ({100 * o['success_rate']:.1f} %). "
-                        f"Data: [{folder.name}/summary.json]({folder.name}/summary.json), "
-                        f"[{folder.name}/episodes.csv]({folder.name}/episodes.csv)."))
     return blocks
 
 
@@ -187,21 +189,44 @@ def _inline(text: str) -> str:
     return re.sub(r"\[([^\]]+)\]\(([^)]+)\)", r'<a href="\2">\1</a>', html.escape(text, quote=False))
 
 
-STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;line-height:1.4;color:#222}"
-         "img{max-width:100%;border:1px solid #ddd}figure{margin:1em 0}figcaption{font-size:.9em;color:#555}"
+STYLE = ("body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;line-height:1.4;color:#222}"
+         "img{max-width:100%;border:1px solid #ddd}figure{margin:0}figcaption{font-size:.85em;color:#555}"
+         ".figs{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-start;margin:1em 0}"
+         ".figs figure{flex:1 1 300px;max-width:560px}nav{columns:2;font-size:.95em}"
          "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:.3em .6em;font-size:.9em}"
          "th{background:#f3f3f3}td.supported{background:#e3f6e3}td.not-supported{background:#fbe4e4}")
 
 
+def _anchor(title: str) -> str:
+    """An HTML id for a section title ("Policy flat" → "policy-flat")."""
+    import re
+
+    return re.sub(r"[^a-z0-9]+", "-", title.lower()).strip("-")
+
+
 def to_html(blocks: list[Block]) -> str:
+    """The page: figures that follow each other share a wrapping row; a list of the sections
+    follows the opening paragraph."""
     parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
              "<title>Self-righting benchmark report</title>", f"<style>{STYLE}</style></head><body>"]
-    for b in blocks:
+    sections = [b[1] for b in blocks if b[0] == "h2"]
+    in_row = False
+    for i, b in enumerate(blocks):
+        if b[0] != "img" and in_row:
+            parts.append("</div>")
+            in_row = False
         if b[0] in ("h1", "h2", "h3"):
-            parts.append(f"<{b[0]}>{html.escape(b[1])}</{b[0]}>")
+            anchor = f' id="{_anchor(b[1])}"' if b[0] == "h2" else ""
+            parts.append(f"<{b[0]}{anchor}>{html.escape(b[1])}</{b[0]}>")
         elif b[0] == "p":
             parts.append(f"<p>{_inline(b[1])}</p>")
+            if i == 1 and sections:
+                items = "".join(f'<li><a href="#{_anchor(t)}">{html.escape(t)}</a></li>' for t in sections)
+                parts.append(f"<nav><ul>{items}</ul></nav>")
         elif b[0] == "img":
+            if not in_row:
+                parts.append('<div class="figs">')
+                in_row = True
             parts.append(f'<figure><img src="{html.escape(b[1])}" alt="{html.escape(b[2])}">'
                          f"<figcaption>{html.escape(b[2])}</figcaption></figure>")
         elif b[0] == "table":
@@ -211,5 +236,7 @@ def to_html(blocks: list[Block]) -> str:
                     f'<td class="{c.replace(" ", "-")}">{html.escape(c)}</td>' if c in ("supported", "not supported")
                     else f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in b[2])
             parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+    if in_row:
+        parts.append("</div>")
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
