@@ -316,6 +316,13 @@ def test_a_students_reward_line_is_the_first_trainer_up_its_chain_of_students(tm
     assert reward_summary(restudent) == "the seed's Table I exactly (z* = 0.38 m)"
 
 
+def test_the_reward_line_names_a_goal_set_term():
+    reward = {**to_dict(RewardConfig()), "goal_set": 10.0}
+    line = reward_summary({"role": "teacher", "train_config": {"reward": reward}})
+    assert line.startswith("the seed's Table I terms **plus a goal-set term** (not in Table I), 10.0 per s")
+    assert "Table I exactly" not in line
+
+
 def test_card_record_reads_back_what_a_card_states():
     from selfright.train.ship import card_record
 

@@ -293,7 +293,7 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
                       *lines[i + 2:]]) + "\n"
 
 
-OWN_WORDS = ("target_height_m",)
+OWN_WORDS = ("target_height_m", "goal_set")
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
 
@@ -330,6 +330,11 @@ def reward_summary(meta: dict[str, Any]) -> str:
         over_feet = episode.get("low_stance_over_feet_m")
         bar = "the goal bar" if over_feet is None else f"{over_feet} m above the ground under the feet"
         rule += f"; training episodes ended as terminal after {low} s upright on {stance} under {bar} (not in the seed)"
+    goal = reward.get("goal_set") or 0.0
+    if goal:
+        terms = f"; {'; '.join(changed)}" if changed else ""
+        return (f"the seed's Table I terms **plus a goal-set term** (not in Table I), {goal} per s in the goal set"
+                f"{terms} (z* = {z_txt}){rule}")
     if not changed:
         return f"{TABLE_I_WORDS} (z* = {z_txt}){rule}"
     return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt}){rule}"
