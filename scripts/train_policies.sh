@@ -26,28 +26,24 @@
 #   run (ROOT/...)                   to model_K   env steps   wall-clock  machine
 #   flat_teacher_v1_scratch                1805       11.1 M      0.59 h  Intel Xeon, 2 cores, 2 physics threads
 #   flat_student_v1                        1003        6.2 M      0.19 h  Intel Xeon, 2 cores, 2 physics threads
-#   rough_scratch                          2216        6.8 M      0.86 h  x86-64, 2 cores, 1 physics thread
-#   rough_dc_teacher                      15832       48.6 M      2.85 h  Intel Xeon, 2 cores, 1 then 2 physics threads
-#   gpu_rough_h25w                          721        4.4 M      0.17 h  Intel Xeon, 16 cores, 5 then 8 physics threads,
-#                                                                          networks on an NVIDIA H200
-#   incline_scratch_narrow                 1928        5.9 M      1.12 h  x86-64, 2 cores, 1 physics thread
-#   incline_dc_teacher                     1173        3.6 M      0.27 h  Intel Xeon, 2 cores, 1 physics thread
-#   incline_dc_teacher_e512                 395        4.9 M      0.27 h  AMD EPYC, 2 cores, 2 physics threads
-#   incline_h25_sel_seed31                  479        2.9 M      0.28 h  AMD EPYC, 2 cores, 1 physics thread
-#   incline_h25_sel31_479_stance03          339        2.1 M      0.18 h  AMD EPYC, 2 cores, 1 physics thread
+#   rough_teacher_v1                       3246       19.9 M      1.10 h  Intel Xeon then AMD EPYC, 2 cores, 2 physics threads
+#   rough_student_v1                        332        2.0 M      0.26 h  AMD EPYC, 2 cores, 1 physics thread
+#   incline_teacher_v1                     1638       10.1 M      0.93 h  Intel Xeon, 2 cores, 2 then 1 then 2 physics threads
+#   incline_teacher_v1_goal                 842        5.2 M      0.59 h  AMD EPYC, 2 cores, 1 physics thread
+#   incline_student_v1                      373        2.3 M      0.25 h  AMD EPYC, 2 cores, 1 physics thread
 #
-#   in all, per stage: flat-teacher 11.1 M / 0.59 h, flat 17.3 M / 0.78 h, rough-teacher 55.4 M / 3.71 h,
-#   rough 59.9 M / 3.88 h, incline-teacher 14.4 M / 1.66 h, incline 19.4 M / 2.11 h (all: 96.6 M / 6.8 h)
+#   in all, per stage (the flat teacher counted in each): flat-teacher 11.1 M / 0.59 h, flat 17.3 M / 0.78 h,
+#   rough-teacher 31.0 M / 1.69 h, rough 33.0 M / 1.95 h, incline-teacher 26.4 M / 2.11 h,
+#   incline 28.7 M / 2.36 h (all: 56.8 M / 3.91 h)
 #
-# Every run trains under the current benchmark version (docs/benchmark.md, *Benchmark versions*):
-# of the recorded runs listed above, the flat runs trained under version 1, the others under version 0.
+# Every run trains under the current benchmark version (docs/benchmark.md, *Benchmark versions*),
+# as every recorded run above did (version 1).
 #
 # A rerun is a draw of the recipe, not a copy of the shipped weights: physics and episode draws
 # depend on thread counts and machine, and a PPO run from scratch can take off later than the
 # recorded one. Where a run's validation (its validation.csv) stays well under the recorded one,
 # train it further (--resume --iterations N) and point its child at the checkpoint that
-# validates as well. The runs recorded with MuJoCo's softer joint stops train with them
-# (--joint-stop-timeconst-s 0.02).
+# validates as well.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 usage="usage: bash scripts/train_policies.sh flat-teacher|flat|rough-teacher|rough|incline-teacher|incline|all"
@@ -118,13 +114,6 @@ publish() {
   run selfright ship --run "$ckpt" --name "$name" --evaluation "$ROOT/eval/$name" "${dest[@]}"
 }
 
-# MuJoCo's softer joint stops, which the rough and incline runs from scratch trained with (the
-# benchmark's are 0.01 s).
-SOFT_STOPS=(--joint-stop-timeconst-s 0.02)
-# The ideal servos (full torque at any speed), which the rough and incline runs from scratch
-# trained with (the benchmark's motors are the A1's DC motors, `dcmotor`).
-IDEAL=(--motor ideal)
-
 flat_teacher() {
   # `flat-teacher`: PPO from scratch under the benchmark's DC motors and joint stops; training
   # episodes end as terminal after 1 s upright on three or four feet under the goal bar (a
@@ -143,78 +132,54 @@ flat() {
 }
 
 rough_teacher() {
-  # PPO from scratch on rough ground with the roughness curriculum, ideal servos.
-  step rough_scratch 2217 --role teacher --context rough --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" "${IDEAL[@]}" \
-    --action-reference tall --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.38 \
-    --train.episode.curriculum --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
-    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
-  # `rough-teacher`: PPO fine-tune under DC motors, no curriculum.
-  step rough_dc_teacher 15833 --role teacher --context rough --init-from "$ROOT/rough_scratch/model_2216.pt" \
-    --motor dcmotor --action-reference tall --envs 128 --physics-threads 2 --train.randomization.friction 0.6 1.2 \
-    --train.reward.target-height-m 0.38 --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
-    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
+  flat_teacher
+  # `rough-teacher`: PPO from the flat teacher on the rough context, the flat recipe otherwise;
+  # model_3246 validated best (seed 1, 192 falls).
+  step rough_teacher_v1 3247 --role teacher --context rough --init-from "$ROOT/flat_teacher_v1_scratch/model_1805.pt" \
+    --envs 256 --physics-threads 2 --seed 1 --action-reference tall --train.episode.terminate-low-stance-s 1.0 \
+    --train.episode.low-stance-leaky --train.validation.episodes 64 --train.checkpoint-every-s 300 \
+    --train.keep-checkpoints 2
 }
 
 rough() {
   rough_teacher
-  # `rough`: 25 frames, 512-256-128 units, DC motors (recorded with networks on a GPU:
-  # EXTRA="--device cuda --physics-threads 8"; 2 CPU cores train it as well).
-  step gpu_rough_h25w 722 --role student --context rough --teacher "$ROOT/rough_dc_teacher/model_15832.pt" \
-    --motor dcmotor --action-reference tall --envs 256 --physics-threads 2 --torch-threads 1 \
-    --train.randomization.friction 0.6 1.2 --train.distillation.student-history 25 \
-    --train.policy.hidden-dims 512 256 128 --train.validation.episodes 64 --train.checkpoint-every-s 300 \
-    --train.keep-checkpoints 0
+  # `rough`: plain distillation into a 25-frame, 512-256-128 student; model_332 validated best.
+  step rough_student_v1 333 --role student --context rough --teacher "$ROOT/rough_teacher_v1/model_3246.pt" \
+    --envs 256 --physics-threads 1 --torch-threads 1 --seed 1 --action-reference tall \
+    --train.distillation.student-history 25 --train.policy.hidden-dims 512 256 128 --train.validation.episodes 64 \
+    --train.checkpoint-every-s 300 --train.keep-checkpoints 3
 }
 
 incline_teacher() {
-  # PPO from scratch with the slope curriculum 5 -> 20 deg, ideal servos.
-  step incline_scratch_narrow 1929 --role teacher --context incline --envs 128 --physics-threads 1 "${SOFT_STOPS[@]}" "${IDEAL[@]}" \
-    --action-reference tall --train.randomization.friction 0.6 1.2 --train.reward.target-height-m 0.37 \
-    --train.episode.curriculum --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
-    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
-  # PPO fine-tune under DC motors on the 20 deg slope.
-  step incline_dc_teacher 1174 --role teacher --context incline --init-from "$ROOT/incline_scratch_narrow/model_1928.pt" \
-    --motor dcmotor --action-reference tall --envs 128 --physics-threads 1 --train.randomization.friction 0.6 1.2 \
-    --train.reward.target-height-m 0.37 --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
-    --train.validation.episodes 64 --train.checkpoint-every-s 240 --train.keep-checkpoints 0
-  # `incline-teacher`: the same at 512 envs and half the KL target.
-  step incline_dc_teacher_e512 396 --role teacher --context incline --init-from "$ROOT/incline_dc_teacher/model_1173.pt" \
-    --motor dcmotor --action-reference tall --envs 512 --physics-threads 2 --train.randomization.friction 0.6 1.2 \
-    --train.reward.target-height-m 0.37 --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky \
-    --train.ppo.desired-kl 0.005 --train.validation.episodes 128 --train.checkpoint-every-s 480 \
-    --train.keep-checkpoints 0
+  flat_teacher
+  # PPO from the flat teacher with the slope curriculum 5 -> 20 deg, the flat recipe otherwise.
+  step incline_teacher_v1 1639 --role teacher --context incline --init-from "$ROOT/flat_teacher_v1_scratch/model_1805.pt" \
+    --envs 256 --physics-threads 2 --seed 1 --action-reference tall --train.episode.curriculum \
+    --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky --train.validation.episodes 64 \
+    --train.checkpoint-every-s 300 --train.keep-checkpoints 2
+  # `incline-teacher`: on the 20 deg slope alone, with a goal-set reward term (not in Table I);
+  # model_842 validated best.
+  step incline_teacher_v1_goal 843 --role teacher --context incline --init-from "$ROOT/incline_teacher_v1/model_1638.pt" \
+    --envs 256 --physics-threads 1 --seed 2 --action-reference tall --train.reward.goal-set 10 \
+    --train.episode.terminate-low-stance-s 1.0 --train.episode.low-stance-leaky --train.validation.episodes 64 \
+    --train.checkpoint-every-s 300 --train.keep-checkpoints 2
 }
 
 incline() {
   incline_teacher
-  # The distillation, 25 frames; model_479 was chosen on evaluation seeds 4-11 among its
-  # checkpoints from 130 on (scripts/select_checkpoints.py). This run and the next were recorded
-  # with an approximation of the DC motors (the ideal servos with each control step's targets
-  # held to the DC motors' torque-speed limit, recorded as motor "envelope"); they train here
-  # with the DC motors themselves.
-  step incline_h25_sel_seed31 480 --role student --context incline --teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" \
-    --seed 31 --motor dcmotor --action-reference tall --envs 256 --physics-threads 1 --torch-threads 1 \
-    --train.randomization.friction 0.6 1.2 --train.distillation.student-history 25 --train.validation.episodes 64 \
-    --train.checkpoint-every-s 120 --train.keep-checkpoints 0
-  # `incline`: that student's labels moved 30 % of the way to the tall stance over 1 s after 1 s
-  # upright within 35 deg.
-  step incline_h25_sel31_479_stance03 340 --role student --context incline \
-    --teacher "$ROOT/incline_h25_sel_seed31/model_479.pt" --seed 31 --motor dcmotor --action-reference tall \
-    --envs 256 --physics-threads 1 --torch-threads 1 --train.randomization.friction 0.6 1.2 \
-    --train.distillation.stance-ramp-s 1.0 --train.distillation.stance-delay-s 1.0 \
-    --train.distillation.stance-tilt-deg 35 --train.distillation.stance-weight 0.3 --train.validation.episodes 64 \
-    --train.checkpoint-every-s 60 --train.keep-checkpoints 0
+  # `incline`: plain distillation into a 25-frame, 512-256-128 student; model_373 validated best.
+  step incline_student_v1 374 --role student --context incline --teacher "$ROOT/incline_teacher_v1_goal/model_842.pt" \
+    --envs 256 --physics-threads 1 --torch-threads 1 --seed 1 --action-reference tall \
+    --train.distillation.student-history 25 --train.policy.hidden-dims 512 256 128 --train.validation.episodes 64 \
+    --train.checkpoint-every-s 300 --train.keep-checkpoints 3
 }
 
 ship_flat_teacher() { flat_teacher; publish flat-teacher "$ROOT/flat_teacher_v1_scratch/model_1805.pt" flat; }
 ship_flat() { flat; publish flat "$ROOT/flat_student_v1/model_1003.pt" flat; }
-ship_rough_teacher() { rough_teacher; publish rough-teacher "$ROOT/rough_dc_teacher/model_15832.pt" rough; }
-ship_rough() { rough; publish rough "$ROOT/gpu_rough_h25w/model_721.pt" rough; }
-ship_incline_teacher() {
-  incline_teacher
-  publish incline-teacher "$ROOT/incline_dc_teacher_e512/model_395.pt" incline
-}
-ship_incline() { incline; publish incline "$ROOT/incline_h25_sel31_479_stance03/model_339.pt" incline; }
+ship_rough_teacher() { rough_teacher; publish rough-teacher "$ROOT/rough_teacher_v1/model_3246.pt" rough; }
+ship_rough() { rough; publish rough "$ROOT/rough_student_v1/model_332.pt" rough; }
+ship_incline_teacher() { incline_teacher; publish incline-teacher "$ROOT/incline_teacher_v1_goal/model_842.pt" incline; }
+ship_incline() { incline; publish incline "$ROOT/incline_student_v1/model_373.pt" incline; }
 
 case ${1:-} in
   flat-teacher) ship_flat_teacher ;;

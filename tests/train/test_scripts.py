@@ -46,11 +46,11 @@ def test_select_checkpoints_expands_runs_scores_each_once_and_ranks(tmp_path, mo
 
     run = tmp_path / "runs" / "cand"
     run.mkdir(parents=True)
-    src = Path("runs/incline_h25_sel31_479_stance03")  # committed: the shipped incline's run
+    src = Path("runs/incline_student_v1")  # committed: the shipped incline's run
     shutil.copy(src / "train_meta.json", run / "train_meta.json")
     for k in (0, 1, 2, 3):
-        shutil.copy(src / "model_339.pt", run / f"model_{k}.pt")
-    shutil.copy(src / "model_339.pt", run / "model_best.pt")
+        shutil.copy(src / "model_373.pt", run / f"model_{k}.pt")
+    shutil.copy(src / "model_373.pt", run / "model_best.pt")
     mod = runpy.run_path(str(SCRIPTS / "select_checkpoints.py"))
     assert [p.name for p in mod["expand"]((run,), every=2)] == ["model_1.pt", "model_3.pt"]  # every 2nd and the last
     assert [p.name for p in mod["expand"]((run, run / "model_3.pt"), min_iteration=3)] == ["model_3.pt"]
@@ -139,10 +139,10 @@ def test_device_train_passes_flags_selfright_train_takes():
 SHIPPED = {
     "flat-teacher": ("flat_teacher_v1_scratch", 1805),
     "flat": ("flat_student_v1", 1003),
-    "rough-teacher": ("rough_dc_teacher", 15832),
-    "rough": ("gpu_rough_h25w", 721),
-    "incline-teacher": ("incline_dc_teacher_e512", 395),
-    "incline": ("incline_h25_sel31_479_stance03", 339),
+    "rough-teacher": ("rough_teacher_v1", 3246),
+    "rough": ("rough_student_v1", 332),
+    "incline-teacher": ("incline_teacher_v1_goal", 842),
+    "incline": ("incline_student_v1", 373),
 }
 """Each shipped learned policy: its run in ``runs/`` (committed with its ``train_meta.json``) and
 the iteration shipped."""
@@ -231,9 +231,9 @@ def test_every_recipe_command_parses_as_selfright_train(tmp_path):
     root = tmp_path / "retrain"
     lines = recipe("all", root)
     commands = train_commands(lines)
-    assert len(commands) == 10  # one a run
+    assert len(commands) == 7  # one a run
     runs = runs_of(commands, root)
-    assert len(runs) == 10
+    assert len(runs) == 7
     for stage in ("flat-teacher", "flat", "rough-teacher", "rough", "incline-teacher", "incline"):
         assert set(recipe(stage, root)) <= set(lines), stage
     failed = subprocess.run(["bash", str(SCRIPTS / "train_policies.sh"), "ship"], capture_output=True, text=True)
