@@ -7,9 +7,9 @@
 #   bash scripts/device_train.sh RUN_DIR ROLE CONTEXT [more `selfright train` flags...]
 #
 # e.g. the `rough` student (scripts/train_policies.sh) with its networks on the GPU:
-#   TEACHER=runs/rough_dc_teacher/model_15832.pt PHYS=8 ITERATIONS=722 ENVS=256 \
-#     bash scripts/device_train.sh runs/gpu_rough_h25w student rough --motor dcmotor --action-reference tall \
-#     --train.randomization.friction 0.6 1.2 --train.distillation.student-history 25 --train.policy.hidden-dims 512 256 128
+#   TEACHER=runs/rough_teacher_v1/model_3246.pt PHYS=8 ITERATIONS=333 ENVS=256 \
+#     bash scripts/device_train.sh runs/rough_student_gpu student rough --seed 1 --action-reference tall \
+#     --train.distillation.student-history 25 --train.policy.hidden-dims 512 256 128
 #
 # A new run starts with INIT's weights if INIT is set (--init-from), or from scratch; an
 # existing run (RUN_DIR holds model_*.pt) resumes and the extra flags must repeat the run's own.
