@@ -1,9 +1,9 @@
 """Turn a policy file (a shipped teacher such as ``rough-teacher``, or a ``selfright export``
 ``.pt``) back into a teacher run folder that ``selfright train --role student --teacher``
-(and ``--train.distillation.fallback-teacher``) accept: ``model_<it>.pt`` holding the actor in
-rsl_rl's PPO checkpoint layout, and a ``train_meta.json`` with the network and action mapping
-(for a shipped policy also its budget and, when Table I, its reward, read from its model card,
-so that a student's card can quote them).
+accepts: ``model_<it>.pt`` holding the actor in rsl_rl's PPO checkpoint layout, and a
+``train_meta.json`` with the network and action mapping (for a shipped policy also its budget
+and, when Table I, its reward, read from its model card, so that a student's card can quote
+them).
 
 The actor's weights and normaliser are copied exactly, so the run folder evaluates to the same
 episodes as the policy file. Useful when a shipped teacher's training run is not on disk:

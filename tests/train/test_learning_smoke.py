@@ -68,9 +68,12 @@ def test_teacher_iteration_resume_distil_export(tmp_path: Path):
     student = tmp_path / "student"
     r = run(spec(student, role="student", teacher=out))
     assert all(math.isfinite(v) for v in r.last_loss.values())
-    copy = TrainingRun(spec(tmp_path / "s2", role="student", teacher=student))  # a student's labels: a copy of it
-    copy.setup()
-    assert copy.label_student is not None and copy.runner.alg.teacher.target is None
+    stray = tmp_path / "stray.pt"  # a student's checkpoint away from its run's train_meta.json
+    shutil.copy(list_checkpoints(student)[-1][1], stray)
+    for taught_by in (student, list_checkpoints(student)[-1][1], stray):  # a student is no teacher
+        with pytest.raises(ValueError, match="holds a student") as e:
+            TrainingRun(spec(tmp_path / "s2", role="student", teacher=taught_by)).setup()
+        assert "\n" not in str(e.value) and not (tmp_path / "s2" / "model_0.pt").exists()
     onnx_path, policy_path = export(ExportArgs(checkpoint=student, onnx=tmp_path / "student.onnx"))
     for p in (onnx_path, policy_path):
         policy = load_policy_file(p)
@@ -158,28 +161,6 @@ def test_init_from_starts_new_teacher_from_weights(tmp_path: Path):
             assert "init-from" in str(e)
         else:
             raise AssertionError("expected ValueError")
-
-
-def test_init_optimizer_takes_the_source_learning_rate(tmp_path: Path):
-    """--init-optimizer: the fine-tune starts at the learning rate (and Adam state) the source
-    ended at, not at the configured initial rate; without --init-from it is refused."""
-    src = tmp_path / "flat"
-    run(spec(src))
-    path = src / "model_0.pt"
-    data = torch.load(path, weights_only=False)
-    data["optimizer_state_dict"]["param_groups"][0]["lr"] = 1e-5  # as an adaptive schedule leaves it
-    torch.save(data, path)
-    fresh = TrainingRun(spec(tmp_path / "fresh", init_from=src))
-    fresh.setup()
-    assert fresh.runner.alg.learning_rate != 1e-5
-    fresh.env.close()
-    kept = TrainingRun(spec(tmp_path / "kept", init_from=src, init_optimizer=True))
-    kept.setup()
-    assert kept.runner.alg.learning_rate == 1e-5
-    assert kept.runner.alg.optimizer.param_groups[0]["lr"] == 1e-5
-    kept.env.close()
-    with pytest.raises(ValueError, match="init-optimizer"):
-        TrainingRun(spec(tmp_path / "bad", init_optimizer=True)).setup()
 
 
 def test_init_from_recentres_features_constant_in_the_source(tmp_path: Path):
@@ -375,36 +356,3 @@ def test_student_with_history_trains_exports_and_deploys_the_same(tmp_path: Path
             a = policy.act({"student": frames[t]}, np.arange(2), [None, None])
             torch.testing.assert_close(a, expected[t], atol=1e-5, rtol=0)
     assert "its last 2 frames stacked" in _evaluate_and_ship(tmp_path, onnx_path, student)
-
-
-def test_student_distils_from_a_teacher_with_a_tilt_fallback(tmp_path: Path):
-    """--train.distillation.fallback-teacher with --train.distillation.fallback-tilt-deg: the
-    composite labels exactly the tilted-over rows with the second teacher; a resumed student
-    keeps both teachers."""
-    from selfright.train.fallback_teacher import FallbackTeacher
-
-    run(spec(tmp_path / "a"))
-    run(spec(tmp_path / "b", seed=1))
-    train = dataclasses.replace(TINY, distillation=dataclasses.replace(
-        TINY.distillation, fallback_teacher=str(tmp_path / "b"), fallback_tilt_deg=45.0))
-    r = run(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train))
-    teacher = r.runner.alg.teacher
-    assert isinstance(teacher, FallbackTeacher) and all(math.isfinite(v) for v in r.last_loss.values())
-    obs = r.env.get_observations()
-    x = obs["teacher"].clone()
-    x[:2, 2], x[2:, 2] = -1.0, 1.0  # rows 0 and 1 upright, rows 2 and 3 on their back
-    obs["teacher"] = x
-    got = teacher(obs)
-    a, b = teacher.primary(obs), teacher.fallback(obs)
-    torch.testing.assert_close(got[:2], a[:2])
-    torch.testing.assert_close(got[2:], b[2:])
-    assert not torch.equal(a, b)
-    resumed = TrainingRun(spec(tmp_path / "student", role="student", teacher=tmp_path / "a", train=train, iterations=2, resume=True))
-    resumed.setup()
-    assert isinstance(resumed.runner.alg.teacher, FallbackTeacher)
-    torch.testing.assert_close(resumed.runner.alg.teacher.fallback(obs), b)
-    no_tilt = dataclasses.replace(train, distillation=dataclasses.replace(train.distillation, fallback_tilt_deg=0.0))
-    with pytest.raises(ValueError, match="fallback-tilt-deg"):
-        TrainingRun(spec(tmp_path / "student_no_tilt", role="student", teacher=tmp_path / "a", train=no_tilt)).setup()
-
-

@@ -154,15 +154,12 @@ BOOKKEEPING = {"train_config.checkpoint_every_s", "train_config.keep_checkpoints
 ADDED_AS_BEFORE = {
     "train_config.episode.terminate_low_stance_s": 0.0,
     "train_config.episode.low_stance_leaky": False,
-    "train_config.episode.restart_stuck": 0.0,
-    "train_config.episode.restart_tilted_only": False,
     "train_config.episode.curriculum": False,
     "train_config.episode.incline_curriculum_deg": (5.0, 10.0, 15.0, 20.0),  # these two act only with the curriculum
     "train_config.episode.curriculum_window_s": 1.0,
     "train_config.episode.off_tile_is_timeout": False,
     "train_config.episode.prepare_starts": False,
     "train_config.recenter_on_init": False,
-    "train_config.distillation.stance_weight": 1.0,
     "train_config.randomization.sensor_noise": 0.0,
     "train_config.reward.goal_set": 0.0,
     "benchmark_config.robot.motor": "ideal",
@@ -171,6 +168,14 @@ ADDED_AS_BEFORE = {
     "benchmark_config.eval.sensor_noise": 0.0,
 }
 """Settings added after a run's meta was written, with the value the code ran with before them."""
+
+REMOVED_OFF = {
+    "train_config.episode.restart_stuck": 0.0,
+    "train_config.distillation.fallback_teacher": None,
+    "train_config.distillation.stance_ramp_s": 0.0,
+}
+"""Recorded settings that are no longer options (``git show 36476615:src/selfright/train/config.py``),
+at the value that turns each off: a shipped run that recorded another could not be retrained."""
 
 NOT_SETTABLE: dict[str, set[str]] = {}
 """Where a recipe command cannot reproduce its run's recorded configuration: settings that are no
@@ -241,15 +246,15 @@ def test_every_recipe_command_parses_as_selfright_train(tmp_path):
 
 
 def test_the_recipe_trains_each_checkpoint_a_later_run_reads_and_ships_the_six(tmp_path):
-    """Every checkpoint a run starts from (``--init-from``) or is taught by (``--teacher``,
-    ``--train.distillation.fallback-teacher``) is the last one an earlier run of the recipe
-    writes; the six shipped checkpoints are the last of their runs, evaluated and shipped."""
+    """Every checkpoint a run starts from (``--init-from``) or is taught by (``--teacher``) is
+    the last one an earlier run of the recipe writes; the six shipped checkpoints are the last of
+    their runs, evaluated and shipped."""
     root = tmp_path / "retrain"
     lines = recipe("all", root)
     written: dict[Path, int] = {}
     for args in train_commands(lines):
         a = parse_train(args)
-        for src in (a.init_from, a.teacher, a.train.distillation.fallback_teacher):
+        for src in (a.init_from, a.teacher):
             if src is None:
                 continue
             assert written.get(Path(src).parent) == int(Path(src).stem.removeprefix("model_")), (a.out, src)
@@ -267,8 +272,8 @@ def test_the_recipe_trains_each_checkpoint_a_later_run_reads_and_ships_the_six(t
 def test_the_recipe_resolves_to_the_recorded_configuration_of_each_shipped_run(name, tmp_path):
     """The recipe's last command of a shipped policy's run builds the training and benchmark
     configuration its ``train_meta.json`` records (bookkeeping aside; settings added since at
-    the value the code had before them; a student labelled by a student takes that student's
-    network and history), with its role, context, seed, envs and sources."""
+    the value the code had before them; recorded settings that are no longer options ignored),
+    with its role, context, seed, envs and sources."""
     run, _ = SHIPPED[name]
     meta = json.loads((REPO / "runs" / run / "train_meta.json").read_text())
     root = tmp_path / "retrain"
@@ -282,15 +287,10 @@ def test_the_recipe_resolves_to_the_recorded_configuration_of_each_shipped_run(n
     assert (str(first.init_from) if first.init_from else None) == moved(meta.get("init_from"))
     assert (str(last.teacher) if last.teacher else None) == moved(meta.get("teacher"))
 
-    now = resolved(last)
-    if last.train.distillation.stance_ramp_s > 0:  # as selfright.train.label_student.student_train_config
-        labeller = resolved(runs[last.teacher.parent.name][-1])
-        for key in ("policy.hidden_dims", "policy.activation", "policy.obs_normalization", "distillation.student_history"):
-            now[f"train_config.{key}"] = labeller[f"train_config.{key}"]
+    now = resolved(last)  # what the code still has: a recorded setting that is no longer an option is left out
     recorded = flat_dict({"train_config": meta["train_config"], "benchmark_config": meta["benchmark_config"]})
-    fallback = recorded.get("train_config.distillation.fallback_teacher")
-    if fallback is not None:
-        recorded["train_config.distillation.fallback_teacher"] = moved(fallback)
+    assert not meta.get("labels_from_student")  # taught by a teacher, not by a student
+    assert all(recorded.get(k, off) == off for k, off in REMOVED_OFF.items()), {k: recorded.get(k) for k in REMOVED_OFF}
     if recorded.get("benchmark_config.robot.motor") == "envelope":
         # incline's two student runs recorded an approximation of the DC motors (the ideal servos
         # with the targets held to their torque-speed limit), not an option any more: the recipe
@@ -317,7 +317,7 @@ for a in "$@"; do
   case $prev in
     --out) out=$a ;;
     --iterations) its=$a ;;
-    --init-from|--teacher|--train.distillation.fallback-teacher) [ -e "$a" ] || { echo "missing $a" >&2; exit 1; } ;;
+    --init-from|--teacher) [ -e "$a" ] || { echo "missing $a" >&2; exit 1; } ;;
   esac
   [ "$a" = --resume ] && resume=1
   prev=$a

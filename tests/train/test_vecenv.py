@@ -17,7 +17,7 @@ from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import DCMOTOR_KD, DCMOTOR_KP, ModelRandomizer, sample_factors
 from selfright.robots import get_robot
 from selfright.sim.scene import TERRAIN_GEOM
-from selfright.train.config import LABEL_GROUP, EpisodeConfig, RandomizationConfig, TrainConfig
+from selfright.train.config import EpisodeConfig, RandomizationConfig, TrainConfig
 from selfright.train.contexts import make_training_worlds, training_cells
 from selfright.train.vecenv import RecoveryVecEnv
 
@@ -306,8 +306,8 @@ def noisy_train(noise: float, **randomization) -> TrainConfig:
 
 def rollout(train: TrainConfig, worlds, n: int, steps: int, seed: int = 5) -> list[dict]:
     """The observation groups and robot states of ``steps`` + 1 control steps of ``n`` envs under
-    the same fixed actions (drawn from their own generator); the labels' group stacks 2 frames."""
-    env = RecoveryVecEnv(CFG, train, worlds, num_envs=n, seed=seed, label_history=2)
+    the same fixed actions (drawn from their own generator)."""
+    env = RecoveryVecEnv(CFG, train, worlds, num_envs=n, seed=seed)
     actions = torch.from_numpy(np.random.default_rng(7).uniform(-1, 1, (steps, n, 12))).float()
     out = [{**env.get_observations().to_dict(), "state": env.env.state.copy()}]
     with torch.inference_mode():
@@ -348,14 +348,13 @@ def test_no_sensor_noise_leaves_the_observations_exact(flat_worlds):
 def test_sensor_noise_reaches_the_student_only_at_its_scale_and_leaves_the_episodes_alone(flat_worlds):
     """``--train.randomization.sensor-noise``: the ``student`` group and its history frames read
     noisy sensors, S × ``sensor_noise_std`` per column (none on the previous action); the teacher
-    group, the labels' exact frames, the physics and the rewards are those of the run without noise."""
+    group, the physics and the rewards are those of the run without noise."""
     n, steps, scale = 32, 6, 0.5
     clean = rollout(noisy_train(0.0), flat_worlds, n, steps)
     noisy = rollout(noisy_train(scale), flat_worlds, n, steps)
     for c, z in zip(clean, noisy):
         np.testing.assert_array_equal(z["state"], c["state"])
-        for group in ("teacher", LABEL_GROUP):
-            torch.testing.assert_close(z[group], c[group], rtol=0, atol=0)
+        torch.testing.assert_close(z["teacher"], c["teacher"], rtol=0, atol=0)
         if "reward" in c:
             torch.testing.assert_close(z["reward"], c["reward"], rtol=0, atol=0)
         torch.testing.assert_close(z["student_history"][:, 42:], z["student"], rtol=0, atol=0)
@@ -379,122 +378,3 @@ def test_sensor_noise_is_drawn_the_same_for_the_same_seed(flat_worlds):
         for group in ("student", "student_history", "teacher"):
             torch.testing.assert_close(x[group], y[group], rtol=0, atol=0)
     assert not torch.equal(a[0]["student"], other[0]["student"])
-
-
-@pytest.mark.parametrize("share", [1.0, 0.0])
-def test_stuck_end_states_restart_episodes(flat_worlds, share):
-    """With restart_stuck 1.0 every episode that ends outside the goal set hands its final
-    state to a new episode (clock reset, on the ground, no new fall); with 0 new episodes
-    are fresh falls."""
-    ep = EpisodeConfig(episode_s=0.1, restart_stuck=share, prepare_starts=False)  # 5 steps: nobody gets up
-    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=3, seed=4)
-    with torch.inference_mode():
-        for _ in range(5):
-            _, _, dones, extras = env.step(torch.zeros(3, 12))
-    assert dones.all() and np.allclose(env.env.state[:, 0], CFG.fall.settle_s)
-    assert len(env.stuck_ends) == 0  # kept and taken back out (or never kept)
-    assert env.replayed.all() == bool(share)
-    if share:
-        assert float(extras["log"]["Episode/replayed_share"]) == 0.0  # the episodes that ended were fresh
-    else:
-        assert "Episode/replayed_share" not in extras["log"]
-    env.close()
-
-
-def test_stuck_end_state_is_the_final_state(flat_worlds):
-    """A restarted episode starts from exactly a kept end state, on that episode's tile and
-    randomised model."""
-    ep = EpisodeConfig(episode_s=0.1, restart_stuck=1.0, prepare_starts=False)
-    env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=2, seed=5)
-    taken = []
-    take = env.stuck_ends.take
-    env.stuck_ends.take = lambda rng: taken.append(take(rng)) or taken[-1]
-    kept = []
-    put = env.stuck_ends.put
-    env.stuck_ends.put = lambda e: kept.append(e) or put(e)
-    with torch.inference_mode():
-        for _ in range(5):
-            env.step(torch.zeros(2, 12))
-    assert len(kept) == 2 and len(taken) == 2 and {id(e) for e in kept} == {id(e) for e in taken}
-    for i in range(2):
-        e = next(e for e in taken if np.array_equal(e.state[1:], env.env.state[i, 1:]))
-        assert env.env.world_idx[i] == e.world
-        np.testing.assert_allclose(env.slot_factors[i], e.factors)
-        assert float(env.env.friction[i]) == pytest.approx(e.factors[0], rel=1e-6)
-    env.close()
-
-
-def test_stuck_restarts_can_keep_only_tilted_end_states(flat_worlds):
-    """With restart_tilted_only an upright end state (here: every slot is upright after the
-    first steps of a settled stand) is not kept; tilted ones are."""
-    kept = {}
-    for tilted_only in (False, True):
-        ep = EpisodeConfig(episode_s=0.1, restart_stuck=1.0, restart_tilted_only=tilted_only, prepare_starts=False)
-        env = RecoveryVecEnv(CFG, dataclasses.replace(TrainConfig(), episode=ep), flat_worlds, num_envs=6, seed=4)
-        kept[tilted_only] = []
-        put = env.stuck_ends.put
-        env.stuck_ends.put = lambda e, k=kept[tilted_only], put=put: k.append(e) or put(e)
-        with torch.inference_mode():
-            for _ in range(5):
-                env.step(torch.zeros(6, 12))
-        env.close()
-    quat = env.env.sl.quat
-    up = [mujoco_up_z(e.state[quat]) for e in kept[False]]
-    limit = np.cos(np.radians(CFG.goal.max_tilt_deg))
-    assert 0 < len(kept[True]) <= sum(u < limit for u in up) < len(kept[False])  # some upright, some not
-    assert all(mujoco_up_z(e.state[quat]) < limit for e in kept[True])
-
-
-def mujoco_up_z(q: np.ndarray) -> float:
-    """World z of the body's up axis for a (w, x, y, z) quaternion."""
-    w, x, y, z = q
-    return 1.0 - 2.0 * (x * x + y * y)
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-def test_training_contexts():
-    rough = training_cells("rough", CFG)
-    extents = [c.roughness_extent_m for c in rough]
-    assert len(rough) == EpisodeConfig().rough_variants and max(extents) == pytest.approx(EpisodeConfig().rough_max_extent_m)
-    assert all(c.slope_pct == 0 for c in rough)
-    assert [c.roughness_level for c in rough] == sorted(c.roughness_level for c in rough)
-    (incline,) = training_cells("incline", CFG)
-    assert incline.slope_deg == pytest.approx(20.0)
-    levels = training_cells("incline", CFG, EpisodeConfig(curriculum=True))
-    assert [c.slope_deg for c in levels] == pytest.approx([5.0, 10.0, 15.0, 20.0])
-    with pytest.raises(ValueError):
-        training_cells("moon", CFG)
-
-
-
-
-def test_action_rate_reads_the_joint_targets(flat_worlds):
-    """Table I's action rate: −‖q*_t − q*_{t−1}‖² on the PD targets applied (after the action
-    mapping and the joint-range clip), from the episode's joint angles at its first step."""
-    env = RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=2, seed=1)
-    inner = env.env
-    start = inner.joint_target.clone()
-    torch.testing.assert_close(start, torch.from_numpy(inner.state[:, inner.sl.qpos_joints]).float())
-    w, dt = TrainConfig().reward.action_rate, env.dt
-    with torch.inference_mode():
-        for actions in (torch.full((2, 12), 0.3), torch.full((2, 12), 50.0)):  # the second is clipped
-            prev = inner.joint_target.clone()
-            _, _, dones, extras = env.step(actions)
-            assert not dones.any()
-            now = inner.joint_target
-            torch.testing.assert_close(now, torch.from_numpy(inner.last_ctrl).float())
-            want = -(w * dt) * (now - prev).square().sum(dim=-1).mean()
-            torch.testing.assert_close(extras["log"]["Reward/action_rate"], want)
-    assert torch.all(inner.joint_target <= torch.from_numpy(inner.robot.joint_high).float() + 1e-6)
-    env.close()

@@ -36,51 +36,6 @@ def reference_offset(robot: RobotSpec, trained: tuple[str, float | None], action
     return (robot.reference_pose(ref) - robot.reference_pose(action.reference)) / action.scale_rad
 
 
-def in_own_units(x: torch.Tensor, offset: torch.Tensor, took: torch.Tensor) -> torch.Tensor:
-    """Observations ``x`` (k, D) with the previous action shifted back into the units of the
-    policy that ``offset`` converts, in the rows where ``took`` (k,) says an action was taken
-    (on an episode's first step the env reports 0 in any units). Returns a copy."""
-    x = x.clone()
-    x[:, prev_action_columns(len(offset))] -= offset.to(x.device, x.dtype) * took.to(x.device, x.dtype)[:, None]
-    return x
-
-
-class ReferenceShift:
-    """Per-slot bookkeeping for running a network trained around another fixed reference pose
-    inside batched training code (one row per env slot): its observations' previous action
-    shifted back into its own units (but on a slot's first step), its actions shifted into the
-    env's. ``offset`` None means the two references are the same and nothing is shifted.
-
-    Args:
-        offset: (J,) (the network's reference pose − the env's) / action scale, in action units.
-        num_envs: env slots.
-    """
-
-    def __init__(self, offset: torch.Tensor | np.ndarray | None, num_envs: int):
-        self.offset = None if offset is None else torch.as_tensor(offset, dtype=torch.float32)
-        self.fresh = torch.ones(num_envs, dtype=torch.bool)
-        """Slots whose episode has not taken a step yet (their previous action reads 0 in any units)."""
-
-    def obs(self, x: torch.Tensor, rows: torch.Tensor | slice = slice(None)) -> torch.Tensor:
-        """Observations ``x`` of the slots ``rows`` in the network's units (a copy when shifted)."""
-        return x if self.offset is None else in_own_units(x, self.offset, ~self.fresh[rows])
-
-    def action(self, a: torch.Tensor) -> torch.Tensor:
-        """The network's actions ``a`` in the env's units."""
-        return a if self.offset is None else a + self.offset.to(a.device, a.dtype)
-
-    def stepped(self) -> None:
-        """Every slot has now taken a step."""
-        self.fresh = torch.zeros_like(self.fresh)
-
-    def reset(self, done: torch.Tensor) -> None:
-        """Slots ``done`` (a mask or indices) start new episodes (out of place: ``fresh`` may have
-        been made under rsl_rl's inference mode)."""
-        fresh = self.fresh.clone()
-        fresh[done] = True
-        self.fresh = fresh
-
-
 class ShiftedReference(Policy):
     """``inner`` (trained around pose A) in an env whose action 0 is pose B.
 

@@ -28,9 +28,8 @@ class TrainArgs:
     context: Context = "flat"
     """Training context: flat plane, rough level ground, or 20° incline."""
     teacher: Path | None = None
-    """Teacher run folder (its latest checkpoint) or checkpoint file; needed for --role student.
-    A student run or checkpoint here labels with that student's actions (with
-    --train.distillation.stance-ramp-s: blended to a stance)."""
+    """Needed with ``--role student``: a teacher run folder (its latest checkpoint) or a teacher
+    checkpoint file (a student's is refused)."""
     envs: int = 64
     """Parallel environments (64–256 suit a few CPU cores)."""
     iterations: int = 10_000
@@ -39,13 +38,7 @@ class TrainArgs:
     """Continue the run in --out from its latest checkpoint."""
     init_from: Path | None = None
     """Teacher: start a new run from another teacher's weights (actor, critic, observation
-    normaliser; fresh optimiser, iteration 0), e.g. a DC-motor teacher from an ideal-servo one.
-    Student labelled by a --teacher student: the student to start as (its network and history)
-    instead of a copy of the --teacher student."""
-    init_optimizer: bool = False
-    """Teacher with --init-from: also take the source's optimiser state and learning rate, so
-    that fine-tuning goes on at the rate the source ended at (the adaptive schedule may have
-    brought it down to 1e-5) instead of a fresh optimiser at the configured initial rate."""
+    normaliser; fresh optimiser, iteration 0), e.g. a rough or incline teacher from the flat one."""
     seed: int = 0
     """Seed of the terrain tiles, the episodes and the network initialisation."""
     physics_threads: int = 1
@@ -63,10 +56,6 @@ class TrainArgs:
     """Motor model (``RobotConfig.motor``): the A1's DC motors, whose torque along the motion
     falls to 0 at the rated joint speed (the benchmark's default), or ideal servos with full
     torque at any speed, for comparison (evaluate with the same ``--motor``)."""
-    joint_stop_timeconst_s: float = RobotConfig.joint_stop_timeconst_s
-    """Stiffness of the joints' hard stops (``RobotConfig.joint_stop_timeconst_s``, s): the
-    benchmark's 0.01 by default; 0.02 is MuJoCo's softer default, which the older runs of the
-    shipped lineages trained with (a training choice only: ``selfright evaluate`` uses 0.01)."""
     train: TrainConfig = field(default_factory=TrainConfig)
     """Rewards, randomisation, networks, PPO/distillation settings, checkpoint interval."""
 
@@ -99,7 +88,6 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
         resume=args.resume,
         teacher=args.teacher,
         init_from=args.init_from,
-        init_optimizer=args.init_optimizer,
         physics_threads=args.physics_threads,
         torch_threads=args.torch_threads,
         device=args.device,
@@ -111,9 +99,8 @@ def train(args: TrainArgs, bench: BenchmarkConfig | None = None) -> Path:
 
 def bench_config(args: TrainArgs) -> BenchmarkConfig:
     """The benchmark configuration a ``selfright train`` run trains in: the defaults with its
-    action reference, motor model and joint stops."""
-    return BenchmarkConfig(action=ActionConfig(reference=args.action_reference),
-                           robot=RobotConfig(motor=args.motor, joint_stop_timeconst_s=args.joint_stop_timeconst_s))
+    action reference and motor model."""
+    return BenchmarkConfig(action=ActionConfig(reference=args.action_reference), robot=RobotConfig(motor=args.motor))
 
 
 def load_checkpoint_actor(checkpoint: Path, source: str | None = None) -> tuple[ActorMLP, Path]:

@@ -62,18 +62,6 @@ class EpisodeConfig:
     goal set. Off, a single step with a foot lifted or above the bar clears the count, which a
     robot creeping downhill on the incline does all the time (docs/training.md, *Choices that are
     not in the seed*)."""
-    restart_stuck: float = 0.0
-    """Share of new training episodes that start, with no new fall, from the final state of a
-    recent episode that ended outside the goal set (its tile, randomisation factors and
-    state, the clock reset), 0 = off. The flat plateau's failures are postures the policy
-    stalls in (sitting on the rear legs; docs/training.md, *`flat` (student, one frame)*); this
-    puts them in the batch as starts, which are not draws of the seed's fall protocol.
-    Up to ``num_envs`` end states are kept; each is used once, picked at random. The escape
-    specialist of ``flat``'s lineage trained from these starts alone (1.0, with
-    ``restart_tilted_only``)."""
-    restart_tilted_only: bool = False
-    """With ``restart_stuck``: keep only end states tilted past the goal set's roll/pitch
-    limit (lying on the back or side), not upright ones such as a crouch under the bar."""
     curriculum: bool = False
     """Terrain curriculum: each env slot holds a level (the context's tiles from easy to hard:
     rough extents ascending, incline slopes ``incline_curriculum_deg``), starts at the
@@ -169,38 +157,8 @@ class DistillationConfig:
     current one only). The issue allows a short history: on the incline a lying robot cannot
     tell the slope from one IMU reading, while a few frames show which way it slides.
     Deployment stacks frames the same way (``selfright.policies.history``)."""
-    fallback_teacher: str | None = None
-    """A second teacher checkpoint that labels every state tilted more than
-    ``fallback_tilt_deg`` from upright instead of the first (``selfright.train.fallback_teacher``).
-    It needs the first teacher's network; if it was trained around the other fixed action
-    reference (``stand`` / ``tall``), its labels are converted to the student's. None = one
-    teacher."""
-    fallback_tilt_deg: float = 0.0
-    """With ``fallback_teacher`` (required there, in (0, 180)): it labels every state whose trunk
-    is tilted more than this from upright (deg), the first teacher the rest; a rule of the
-    current state alone (``selfright.train.tilt.TiltSwitch``)."""
     student_init_std: Annotated[float, Suppress] = 0.1
     """Action noise of the student while it collects its own rollouts (action units)."""
-    stance_ramp_s: float = 0.0
-    """> 0: distil a fixed stance into a student (``selfright.train.stance_teacher``). The
-    ``--teacher`` is then a feed-forward *student* (run or checkpoint) whose own actions are
-    the labels, blended over this long (s) to ``stance_pose`` once the trunk has been upright
-    within ``stance_tilt_deg`` for ``stance_delay_s``; the new student starts as a copy of it
-    (or of ``--init-from``). 0 with a student ``--teacher``: the labels are its actions as they
-    are. Either way the labelling student reads the exact sensors.
-    **Not** the seed's recipe (its labels add a hand-set stance; model cards say so). 0 = off."""
-    stance_delay_s: float = 2.0
-    """With ``stance_ramp_s``: how long the trunk must have been upright before the blend starts (s)."""
-    stance_tilt_deg: float = 15.0
-    """With ``stance_ramp_s``: how close to upright counts as upright (deg, projected gravity)."""
-    stance_pose: Annotated[tuple[float, float, float], Suppress] = (0.0, 0.46, -0.92)
-    """With ``stance_ramp_s``: the stance's hip, thigh and knee angles (rad) on every leg: the
-    knee at its limit and the foot under the hip."""
-    stance_weight: float = 1.0
-    """With ``stance_ramp_s``: how far the labels blend, in (0, 1]: 1 = all the way to
-    ``stance_pose``; 0.3 = the base student's action moved 30 % of the way there, its own
-    balance corrections kept (``incline``'s lineage; docs/training.md, *`incline` (student, 25
-    frames, DC envelope)*)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -293,13 +251,6 @@ class TrainConfig:
 def student_group(history: int) -> str:
     """Name of the observation group a student with ``history`` frames reads."""
     return "student" if history <= 1 else "student_history"
-
-
-LABEL_GROUP = "student_exact"
-"""Observation group of a student that labels another (``--teacher STUDENT``: a copy, or a
-stance distillation with ``--train.distillation.stance-ramp-s``): the ``student`` observation,
-its frames stacked as the labelling student reads them (its history may differ from the
-trained student's)."""
 
 
 def _mlp_cfg(pol: PolicyConfig) -> dict[str, Any]:

@@ -13,8 +13,6 @@ Run directory layout (``--out``)::
 from __future__ import annotations
 
 import contextlib
-import copy
-import functools
 import io
 import json
 import os
@@ -28,14 +26,11 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from torch import nn
 from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 from rsl_rl.utils.logger import Logger
 
 from selfright.config import BENCHMARK_VERSION, BenchmarkConfig, to_dict
 from selfright.machine import cpu_model, versions
-from selfright.policies.actor import teacher_checkpoint
-from selfright.policies.reference import reference_offset
 from selfright.policies.run_files import (
     CHECKPOINT_RE,
     META_FILE,
@@ -43,13 +38,9 @@ from selfright.policies.run_files import (
     list_checkpoints,
     read_meta,
 )
-from selfright.train.config import LABEL_GROUP, PolicyConfig, Role, TrainConfig
+from selfright.train.config import PolicyConfig, Role, TrainConfig
 from selfright.train.contexts import make_training_worlds
-from selfright.train.fallback_teacher import FallbackTeacher
-from selfright.train.label_student import is_student, load_student, student_train_config
-from selfright.train.stance_teacher import StanceTeacher, stance_action
 from selfright.train.run_lock import run_lock
-from selfright.train.tilt import TiltSwitch
 from selfright.train.vecenv import RecoveryVecEnv
 
 PROGRESS_EVERY_S = 10.0
@@ -71,10 +62,7 @@ class RunSpec:
     teacher: Path | None
     physics_threads: int
     init_from: Path | None = None
-    """Weights to start a new run from: a teacher's (a fine-tuning curriculum), or a student's
-    (a student labelled by another student that starts as a third one)."""
-    init_optimizer: bool = False
-    """With a teacher's ``init_from``: load its optimiser state and learning rate too."""
+    """A teacher's weights to start a new teacher run from (a fine-tuning curriculum)."""
     torch_threads: int
     device: str = "cpu"
     """Torch device of the networks (physics stays on the CPU)."""
@@ -85,12 +73,24 @@ class RunSpec:
 
 
 # ------------------------------------------------------------------ checkpoints
-def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyConfig, dict[str, Any]]:
+def teacher_policy_config(
+    ckpt: Path, fallback: PolicyConfig, flag: str = "--teacher"
+) -> tuple[PolicyConfig, dict[str, Any]]:
     """The network config of a trained teacher, from its run's ``train_meta.json``, else read off
-    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta."""
+    the weights (activation then defaults to ``fallback``'s). Also returns the teacher's meta.
+    ``ValueError`` (one line, naming ``flag``) if ``ckpt`` holds a student or no teacher."""
     meta = read_meta(ckpt.parent)
-    if meta.get("role", "teacher") != "teacher":
-        raise ValueError(f"{ckpt.parent} is a {meta['role']} run; --teacher needs a teacher run (--role teacher)")
+    try:
+        data = torch.load(ckpt, map_location="cpu", weights_only=True)
+    except Exception as e:  # noqa: BLE001 - any unpickling failure means the same to the user
+        why = type(e).__name__
+        raise ValueError(f"{flag} {ckpt} cannot be read ({why}); pass a teacher run or model_<it>.pt") from None
+    data = data if isinstance(data, dict) else {}
+    infos = data.get("infos") if isinstance(data.get("infos"), dict) else {}
+    payload = data.get("meta") if isinstance(data.get("meta"), dict) else {}  # a `selfright export` policy file
+    if (meta.get("role", "teacher") != "teacher" or "student_state_dict" in data
+            or "student" in (infos.get("obs_group"), infos.get("role"), payload.get("obs_group"))):
+        raise ValueError(f"{flag} {ckpt} holds a student; {flag} takes a teacher run or checkpoint (--role teacher)")
     pol = meta.get("policy")
     if pol:
         return (
@@ -102,7 +102,7 @@ def teacher_policy_config(ckpt: Path, fallback: PolicyConfig) -> tuple[PolicyCon
             ),
             meta,
         )
-    sd = torch.load(ckpt, map_location="cpu", weights_only=True).get("actor_state_dict")
+    sd = data.get("actor_state_dict")
     if sd is None:
         raise ValueError(f"{ckpt} is not a teacher checkpoint (no 'actor_state_dict'); pass a teacher run")
     ws = sorted((int(k.split(".")[1]), v) for k, v in sd.items() if re.fullmatch(r"mlp\.\d+\.weight", k))
@@ -171,40 +171,15 @@ class TrainingRun:
         if s.train.randomization.sensor_noise > 0 and s.role != "student":
             raise ValueError("--train.randomization.sensor-noise applies to students; a teacher reads privileged, "
                              "exact observations")
-        d = s.train.distillation
-        if d.stance_ramp_s > 0 and s.role != "student":
-            raise ValueError("--train.distillation.stance-ramp-s distils one feed-forward student from another "
-                             "(--role student, --teacher STUDENT, no fallback teacher)")
-        if d.fallback_teacher is not None and not 0.0 < d.fallback_tilt_deg < 180.0:
-            raise ValueError("--train.distillation.fallback-teacher needs --train.distillation.fallback-tilt-deg "
-                             "in (0, 180): the tilt from upright beyond which the fallback teacher labels")
-        if self.labels_from_student and d.fallback_teacher is not None:
-            raise ValueError("a student labelled by another student (--teacher STUDENT"
-                             + (", --train.distillation.stance-ramp-s" if d.stance_ramp_s > 0 else "")
-                             + ") has one teacher: no fallback teacher")
-        if s.init_optimizer and (s.init_from is None or s.role != "teacher"):
-            raise ValueError("--init-optimizer goes with a teacher's --init-from (the optimiser of the source run)")
         if s.init_from is not None:
-            if s.role == "student" and not self.labels_from_student:
-                raise ValueError("--init-from is for teachers and students labelled by another "
-                                 "student (--teacher STUDENT); a student of a teacher starts afresh")
+            if s.role == "student":
+                raise ValueError("--init-from is for teachers; a student starts afresh from its --teacher's labels")
             if s.resume:
                 raise ValueError("--init-from starts a new run; drop --resume (a resumed run keeps its own weights)")
-            if not s.init_from.exists() and s.role == "teacher":
+            if not s.init_from.exists():
                 raise ValueError(f"--init-from {s.init_from} not found; pass a teacher run folder or model_<it>.pt")
         if not s.resume and has_ckpt:
             raise ValueError(f"{self.out} already holds checkpoints; pass --resume to continue or choose another --out")
-
-    @functools.cached_property
-    def labels_from_student(self) -> bool:
-        """A ``--role student`` run whose ``--teacher`` is itself a student: its labels are that
-        student's actions on the exact sensors (``StanceTeacher``), blended to a stance with
-        ``--train.distillation.stance-ramp-s``; the new student starts as a copy of it (or of
-        ``--init-from``). Read once: it loads the teacher's file."""
-        s = self.spec
-        if s.role != "student" or s.teacher is None:
-            return False
-        return s.train.distillation.stance_ramp_s > 0 or is_student(s.teacher)
 
     def setup(self) -> None:
         s = self.spec
@@ -215,26 +190,8 @@ class TrainingRun:
         self.resume_ckpt = latest_checkpoint(self.out) if s.resume else None
         self.teacher_ckpt = latest_checkpoint(s.teacher) if s.teacher is not None else None
         self.init_ckpt: Path | None = None
-        self.init_student = None
         teacher_policy, teacher_meta = (None, {})
-        self.label_student = None
-        if self.labels_from_student:
-            flag = "--teacher (a student)"
-            self.label_student = load_student(self.teacher_ckpt, flag)
-            self._check_student_mapping(self.label_student, flag)
-            motor = self.label_student.meta.motor
-            if motor and motor != s.bench.robot.motor:
-                print(f"warning: the labelling student was trained with --motor {motor}, this run uses "
-                      f"--motor {s.bench.robot.motor}: its labels are what it does in other dynamics")
-            if s.init_from is not None:  # the student starts as this one (its network, history), not as the base
-                self.init_student = load_student(s.init_from, "--init-from")
-                self._check_student_mapping(self.init_student)
-                self.init_ckpt = s.init_from
-            elif self.resume_ckpt is not None:  # a resumed run keeps its own network, whatever it started from
-                self.init_student = load_student(self.resume_ckpt, "--resume")
-            s = self.spec = replace(s, train=student_train_config(s.train, self.init_student or self.label_student))
-            teacher_policy = s.train.policy  # (rsl_rl's own teacher is built, then replaced by StanceTeacher)
-        elif s.role == "student":
+        if s.role == "student":
             teacher_policy, teacher_meta = teacher_policy_config(self.teacher_ckpt, s.train.policy)
             if teacher_meta.get("context") not in (None, s.context):
                 print(f"warning: teacher was trained on {teacher_meta['context']!r}, student trains on {s.context!r}")
@@ -253,7 +210,7 @@ class TrainingRun:
         # A resumed run draws new episodes: the generator is keyed by the start iteration.
         self.env = RecoveryVecEnv(
             bench, s.train, worlds, s.num_envs, seed=(s.seed, start_it), threads=s.physics_threads,
-            device=s.device, label_history=self.label_student.meta.obs_history if self.label_student is not None else 0,
+            device=s.device,
         )
         self.cfg = s.train.to_rsl_rl(s.role, teacher_policy)
         runner_cls = DistillationRunner if s.role == "student" else OnPolicyRunner
@@ -265,26 +222,20 @@ class TrainingRun:
             is_distributed=r.is_distributed, gpu_world_size=r.gpu_world_size, gpu_global_rank=r.gpu_global_rank,
             device=r.device, hook=self._on_iteration,
         )
-        fallback = s.train.distillation.fallback_teacher if s.role == "student" else None
-        if fallback is not None:
-            self._install_fallback_teacher(Path(fallback), load_primary=self.resume_ckpt is None)
-        if self.label_student is not None:
-            self._install_stance_teacher(load_student_weights=self.resume_ckpt is None)
         resumed_infos: dict = {}
         if self.resume_ckpt is not None:
             resumed_infos = r.load(str(self.resume_ckpt), map_location=s.device) or {}  # a GPU run resumes on the CPU too
             r.current_learning_iteration = start_it  # rsl_rl stores the last finished iteration
             self.env.restore_curriculum(resumed_infos.get("curriculum_level"))
         elif s.role == "student":
-            if fallback is None and self.label_student is None:  # (else the teachers are loaded above)
-                r.load(str(self.teacher_ckpt), map_location=s.device)  # loads the teacher only (rsl_rl: from an RL checkpoint)
+            r.load(str(self.teacher_ckpt), map_location=s.device)  # loads the teacher only (rsl_rl: from an RL checkpoint)
         elif s.init_from is not None:
             init = latest_checkpoint(s.init_from)
-            _, init_meta = teacher_policy_config(init, s.train.policy)  # refuses student runs
+            teacher_policy_config(init, s.train.policy, "--init-from")  # refuses students
             source = torch.load(init, map_location=self.spec.device, weights_only=False)
             if not any(k.startswith("distribution.") for k in source["actor_state_dict"]):
                 raise ValueError(f"--init-from {init} has a state-dependent action std, which selfright train does not build")
-            r.alg.load(source, {"actor": True, "critic": True, "optimizer": s.init_optimizer}, True)
+            r.alg.load(source, {"actor": True, "critic": True, "optimizer": False}, True)
             self.init_ckpt = init
             if s.train.recenter_on_init:
                 moved = _recenter_constant_features(r.alg, self.env.get_observations())
@@ -297,79 +248,6 @@ class TrainingRun:
         self.base_steps = int(resumed_infos.get("env_steps", self.prev_meta.get("env_steps", 0)))
         self.base_wall = float(resumed_infos.get("wall_clock_s", self.prev_meta.get("wall_clock_s", 0.0)))
         self.t0 = time.time()
-
-    def _check_student_mapping(self, student, flag: str = "--init-from") -> None:
-        ref = student.meta.action_reference
-        if ref and ref != self.spec.bench.action.reference:
-            raise ValueError(f"{flag}: the student was trained with --action-reference {ref}; go on with the same")
-
-    def _install_fallback_teacher(self, path: Path, load_primary: bool) -> None:
-        """Replace rsl_rl's teacher by ``FallbackTeacher`` (the ``--teacher`` and the fallback
-        checkpoint, same network, handing over by the tilt rule); loads both
-        unless a resumed checkpoint will."""
-        s, alg = self.spec, self.runner.alg
-        d = s.train.distillation
-        primary = alg.teacher
-        if load_primary:
-            try:
-                primary.load_state_dict(torch.load(self.teacher_ckpt, map_location=s.device, weights_only=False)["actor_state_dict"])
-            except RuntimeError as e:
-                raise ValueError(f"--teacher {self.teacher_ckpt}: {e}") from None
-        second, offset = self._second_teacher(path, "fallback-teacher")
-        composite = FallbackTeacher(primary, second, s.num_envs, TiltSwitch(d.fallback_tilt_deg), offset).to(s.device).eval()
-        alg.teacher = alg._raw_teacher = composite
-        alg.teacher_loaded = True
-
-    def _install_stance_teacher(self, load_student_weights: bool) -> None:
-        """Replace rsl_rl's teacher by ``StanceTeacher`` around the ``--teacher`` student (reading
-        the exact sensors; blended to the stance with ``stance_ramp_s``), and (a new run) start the
-        student as a copy of that student, or of ``--init-from``."""
-        s, alg, d = self.spec, self.runner.alg, self.spec.train.distillation
-        robot, dt = self.env.env.robot, s.bench.sim.control_dt_s
-        base = self.label_student.to(s.device).eval()
-        target = None
-        if d.stance_ramp_s > 0:
-            target = torch.as_tensor(stance_action(robot, s.bench.action, d.stance_pose), dtype=torch.float32)
-        teacher = StanceTeacher(base, LABEL_GROUP, s.num_envs, d.stance_tilt_deg,
-                                round(d.stance_delay_s / dt), max(1, round(d.stance_ramp_s / dt)), target,
-                                weight=d.stance_weight)
-        alg.teacher = alg._raw_teacher = teacher.to(s.device).eval()
-        alg.teacher_loaded = True
-        if load_student_weights:
-            sd = teacher_checkpoint(self.init_student or self.label_student)["actor_state_dict"]
-            if "obs_normalizer.count" in sd:  # the copied statistics move as slowly as a long run's
-                sd["obs_normalizer.count"] = torch.tensor(10**6)
-            own = alg.student.state_dict()
-            sd["distribution.std_param"] = own["distribution.std_param"]  # the rollout noise of --train.distillation.student-init-std
-            alg.student.load_state_dict(sd)
-
-    def _second_teacher(self, path: Path, flag: str) -> tuple[nn.Module, torch.Tensor | None]:
-        """A copy of the ``--teacher``'s network with ``path``'s weights, and the offset that
-        converts its actions into the student's units (``_fallback_offset``)."""
-        s = self.spec
-        ckpt = latest_checkpoint(path)
-        net = copy.deepcopy(self.runner.alg.teacher)
-        weights = torch.load(ckpt, map_location=s.device, weights_only=False).get("actor_state_dict")
-        if weights is None:
-            raise ValueError(f"--train.distillation.{flag} {path}: not a teacher checkpoint")
-        try:
-            net.load_state_dict(weights)
-        except RuntimeError as e:
-            raise ValueError(f"--train.distillation.{flag} {path} must have the --teacher's network: {e}") from None
-        return net, self._fallback_offset(ckpt, self.env.env.robot, flag)
-
-    def _fallback_offset(self, ckpt: Path, robot, flag: str = "fallback-teacher") -> torch.Tensor | None:
-        """(fallback's reference pose − the student's) / scale when the fallback teacher was
-        trained around another fixed pose than ``--action-reference`` (its labels are shifted
-        into the student's units); None when they are the same. Refuses what cannot be converted."""
-        pol = read_meta(ckpt.parent).get("policy") or {}
-        trained = (pol.get("action_reference", "stand"), pol.get("action_scale_rad"))
-        try:
-            offset = reference_offset(robot, trained, self.spec.bench.action)
-        except ValueError as e:
-            raise ValueError(f"--train.distillation.{flag} {ckpt.parent}: {e}; only fixed poses (stand / tall) "
-                             "at the student's scale convert") from None
-        return None if offset is None else torch.as_tensor(offset, dtype=torch.float32)
 
     @staticmethod
     def _saved_iteration(ckpt: Path) -> int:
@@ -426,7 +304,6 @@ class TrainingRun:
             "command_lines": [*self.prev_meta.get("command_lines", []), cmd],
             "command_start_iterations": [*self.prev_meta.get("command_start_iterations", []), self.start_it],
             "teacher": str(self.teacher_ckpt) if self.teacher_ckpt else None,
-            "labels_from_student": self.label_student is not None,
             "init_from": str(self.init_ckpt) if self.init_ckpt else self.prev_meta.get("init_from"),
             "latest_checkpoint": str(checkpoint) if checkpoint else None,
             "policy": self.policy_meta(),

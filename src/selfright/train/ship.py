@@ -129,38 +129,9 @@ def _budget(label: str, checkpoint: str | None) -> str:
     return f"; {label}: {int(t.get('env_steps', 0)):,} env steps, {float(t.get('wall_clock_s', 0.0)) / 3600:.2f} h"
 
 
-def _fallback_teacher(meta: dict[str, Any]) -> tuple[str | None, str]:
-    """The distillation's second teacher (``--train.distillation.fallback-teacher``) and the
-    words for where it labelled; (None, "") without one."""
-    d = (meta.get("train_config") or {}).get("distillation") or {}
-    fb = d.get("fallback_teacher")
-    if not fb:
-        return None, ""
-    return fb, f" where the trunk is upright within {d.get('fallback_tilt_deg', 0.0):g}°, and from `{fb}` where it is tilted more"
-
-
-def _student_label_words(meta: dict[str, Any]) -> str:
-    """Words for a student labelled by another student (``--teacher STUDENT``), its labels blended to
-    a stance with ``--train.distillation.stance-ramp-s``; "" for a student of a teacher."""
-    d = (meta.get("train_config") or {}).get("distillation") or {}
-    ramp = d.get("stance_ramp_s", 0.0)
-    start = (f", and it started as a copy of the student `{meta['init_from']}`" if meta.get("init_from")
-             else ", and it started as a copy of that student")
-    if not ramp:
-        if not meta.get("labels_from_student"):
-            return ""
-        return f"; its labels are that student's own actions{start} (**not the seed's recipe**)"
-    pose = ", ".join(f"{v:g}" for v in d.get("stance_pose", ()))
-    weight = d.get("stance_weight", 1.0)
-    share = "" if weight == 1.0 else f"{weight:g} of the way "
-    return (f"; its labels are that student's own actions, blended over {ramp:g} s {share}to a fixed stance (hip, thigh, "
-            f"knee {pose} rad on every leg) once the trunk has been upright within {d.get('stance_tilt_deg', 15.0):g}° "
-            f"for {d.get('stance_delay_s', 2.0):g} s" + start + " (**not the seed's recipe**)")
-
-
-def _lineage(teacher: str | None, label_words: str) -> str:
-    """How the policy came from its teacher: distilled, with the words for its labels."""
-    return f", distilled from `{teacher}`{label_words}" if teacher else ""
+def _lineage(teacher: str | None) -> str:
+    """How the policy came from its teacher: distilled from it."""
+    return f", distilled from `{teacher}`" if teacher else ""
 
 
 def model_card(
@@ -172,8 +143,6 @@ def model_card(
     hours = float(meta.get("wall_clock_s", 0.0)) / 3600
     cmds = meta.get("command_lines") or [meta.get("command_line", "?")]
     teacher = meta.get("teacher")
-    fallback, fallback_words = _fallback_teacher(meta)
-    label_words = fallback_words + _student_label_words(meta)  # how the distillation labels were made
     pol = meta.get("policy") or {}
     lines = [
         f"# Model card: `{name}`",
@@ -181,15 +150,13 @@ def model_card(
         f"- **Role**: {meta.get('role')} (observation group `{actor.obs_group}`"
         + (f", its last {actor.obs_history} frames stacked oldest first" if actor.obs_history > 1 else "")
         + ")"
-        + _lineage(teacher, label_words),
+        + _lineage(teacher),
         f"- **Training context**: {meta.get('context')}"
         + (f"; initialised from the teacher `{meta['init_from']}`"
            if meta.get("init_from") and meta.get("role") == "teacher" else ""),
         f"- **Environment steps**: {steps:,} ({meta.get('iterations_done')} iterations, {meta.get('num_envs')} envs)"
-        + _budget("the student that labelled it" if meta.get("labels_from_student") else "its teacher", teacher)
-        + _budget("its fallback teacher", fallback)
-        + _budget("before that, its initialisation", meta.get("init_from") if meta.get("role") == "teacher" else None)
-        + _budget("the student it started as", meta.get("init_from") if meta.get("role") == "student" else None),
+        + _budget("its teacher", teacher)
+        + _budget("before that, its initialisation", meta.get("init_from") if meta.get("role") == "teacher" else None),
         f"- **Action mapping**: joint targets = `{pol.get('action_reference', 'stand')}` reference + "
         f"{pol.get('action_scale_rad', 0.5)} rad × action (any `--action-reference` but `current` converts it)",
         *motor_lines(meta),
@@ -231,8 +198,8 @@ def motor_lines(meta: dict[str, Any]) -> list[str]:
 
 
 def joint_stop_lines(meta: dict[str, Any]) -> list[str]:
-    """A card line naming the joint stops' stiffness when the run trained with other stops
-    than the benchmark's (``selfright train --joint-stop-timeconst-s``)."""
+    """A card line naming the joint stops' stiffness when the run's ``train_meta.json`` records
+    other stops than the benchmark's (``RobotConfig.joint_stop_timeconst_s``)."""
     robot = (meta.get("benchmark_config") or {}).get("robot") or {}
     trained = robot.get("joint_stop_timeconst_s")
     if trained is None or trained == RobotConfig.joint_stop_timeconst_s:

@@ -4,7 +4,6 @@ possibly kept per slot until the slot's current episode ends (``EpisodeConfig.pr
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -25,9 +24,6 @@ class EpisodeDraw:
     models: list[mujoco.MjModel] | None
     """k models the episodes run on (randomised copies or the worlds' own); None = rebuild them
     from ``world_idx`` and ``factors`` (prepared starts do not keep a ~0.5 MB model copy each)."""
-    replayed: np.ndarray
-    """(k,) bool, not a fresh fall: it restarts from a stuck episode's end state
-    (``EpisodeConfig.restart_stuck``)."""
     settled: SettledStarts
     """States after the fall protocol's 2 s settle."""
 
@@ -41,7 +37,6 @@ class PreparedStarts:
         self.world = np.zeros(num_envs, dtype=np.int64)
         self.randomized = False
         self.factors = np.ones((num_envs, 4))
-        self.replayed = np.zeros(num_envs, dtype=bool)
         self.state = np.zeros((num_envs, state_size))
         self.sens = np.zeros((num_envs, sensor_size))
         self.diverged = np.zeros(num_envs, dtype=bool)
@@ -52,7 +47,6 @@ class PreparedStarts:
         self.randomized = draw.factors is not None
         if draw.factors is not None:
             self.factors[slots] = draw.factors.as_array()
-        self.replayed[slots] = draw.replayed
         self.state[slots] = draw.settled.state
         self.sens[slots] = draw.settled.sens
         self.diverged[slots] = draw.settled.diverged
@@ -66,45 +60,9 @@ class PreparedStarts:
             world_idx=self.world[slots].copy(),
             factors=EpisodeFactors.from_array(self.factors[slots].copy()) if self.randomized else None,
             models=None,
-            replayed=self.replayed[slots].copy(),
             settled=SettledStarts(
                 state=self.state[slots].copy(), sens=self.sens[slots].copy(), diverged=self.diverged[slots].copy()
             ),
         )
         self.ready[slots] = False
         return draw
-
-
-@dataclass(frozen=True)
-class EndState:
-    """Where a finished training episode stopped: enough to start another one there."""
-
-    world: int
-    factors: np.ndarray | None
-    """(4,) randomisation factors (``EpisodeFactors.as_array`` row); None = randomisation off."""
-    state: np.ndarray
-    """(nstate,) full-physics state."""
-    sens: np.ndarray
-    """(nsensordata,) sensor readings of that state."""
-
-
-class StuckEnds:
-    """End states of recent episodes that finished outside the goal set, each handed out once
-    (``EpisodeConfig.restart_stuck``); the oldest drop out beyond ``maxlen``."""
-
-    def __init__(self, maxlen: int):
-        self._ends: deque[EndState] = deque(maxlen=maxlen)
-
-    def __len__(self) -> int:
-        return len(self._ends)
-
-    def put(self, end: EndState) -> None:
-        self._ends.append(end)
-
-    def take(self, rng: np.random.Generator) -> EndState:
-        """Remove and return a uniformly chosen end state."""
-        k = int(rng.integers(len(self._ends)))
-        self._ends.rotate(-k)
-        end = self._ends.popleft()
-        self._ends.rotate(k)
-        return end

@@ -74,8 +74,7 @@ def evaluate_checkpoint(
     bench: BenchmarkConfig,
 ) -> Score:
     """Success of checkpoint ``ckpt`` (saved after ``iteration``, ``env_steps``) on ``grid``
-    (``episodes`` per cell, run seed ``seed``). A student is scored alone, without the
-    fallback teacher it may have been distilled beside."""
+    (``episodes`` per cell, run seed ``seed``)."""
     from selfright.evaluate.runner import evaluate_grid
     from selfright.policies.registry import make_policy
 

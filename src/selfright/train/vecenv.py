@@ -35,13 +35,13 @@ from selfright.config import BenchmarkConfig, to_dict
 from selfright.env.goal import body_height, goal_height_m, upright
 from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
-from selfright.env.recovery_env import RecoveryEnv, SettledStarts
+from selfright.env.recovery_env import RecoveryEnv
 from selfright.env.rewards import RewardContext, reward_weights, weighted_rewards
 from selfright.env.world import World
 from selfright.policies.actor import group_dim
 from selfright.policies.history import ObsHistory
-from selfright.train.config import LABEL_GROUP, TrainConfig, student_group
-from selfright.train.starts import EndState, EpisodeDraw, PreparedStarts, StuckEnds
+from selfright.train.config import TrainConfig, student_group
+from selfright.train.starts import EpisodeDraw, PreparedStarts
 
 if TYPE_CHECKING:
     from selfright.env.robot_state import RobotState
@@ -63,12 +63,10 @@ class RecoveryVecEnv(VecEnv):
         threads: physics worker threads.
         device: torch device the observations, rewards and dones are returned on (the
             networks' device; the simulation and its bookkeeping stay on the CPU).
-        label_history: frames of the exact student observation to stack as group
-            ``LABEL_GROUP`` (0 = none), for a student labelling a stance distillation.
 
     With ``RandomizationConfig.sensor_noise`` > 0 the ``student`` group (and the student's
     history frames) read noisy sensors, from a generator of their own; the ``teacher`` group
-    and ``LABEL_GROUP`` stay exact.
+    stays exact.
     """
 
     def __init__(
@@ -80,7 +78,6 @@ class RecoveryVecEnv(VecEnv):
         seed: int | tuple[int, ...],
         threads: int = 1,
         device: str = "cpu",
-        label_history: int = 0,
     ):
         self.env = RecoveryEnv(cfg, worlds, num_envs, threads=threads)
         self.train_cfg = train
@@ -121,22 +118,10 @@ class RecoveryVecEnv(VecEnv):
         """Control steps each slot has stood upright on four feet under the goal bar without a
         break (with ``low_stance_leaky``: the leaky count of ``_low_stance_ended``)."""
         self.goal_bar_m = goal_height_m(cfg.goal, robot.leg_length_m)
-        self.restart_share = ep.restart_stuck
-        self.track_tail = self.curriculum or self.restart_share > 0
-        self.tilted_only = ep.restart_tilted_only
-        self.stuck_ends = StuckEnds(num_envs)
-        """End states of recent episodes that finished outside the goal set (``restart_stuck``)."""
-        self.slot_factors = np.ones((num_envs, 4))
-        """(n, 4) randomisation factors of each slot's episode (``EpisodeFactors.as_array``;
-        meaningful only with randomisation on)."""
         frames = train.distillation.student_history
         self.student_frames = ObsHistory(frames, group_dim("student"), num_envs) if frames > 1 else None
         """The last ``student_history`` student observations of each slot (group
         ``student_group(frames)``), for a student that reads a short history."""
-        self.label_frames = ObsHistory(label_history, group_dim("student"), num_envs) if label_history > 0 else None
-        """The last ``label_history`` student observations of each slot (group ``LABEL_GROUP``),
-        for a student that labels another; None = not asked for."""
-        self.replayed = torch.zeros(num_envs, dtype=torch.bool)
         self.prepare_starts = ep.prepare_starts
         self.next_start = PreparedStarts(num_envs, self.env.sl.size, self.env.sens.shape[1])
         """Each slot's settled next episode start, drawn ahead in batches (``prepare_starts``)."""
@@ -176,7 +161,7 @@ class RecoveryVecEnv(VecEnv):
 
     def _draw(self, slots: np.ndarray) -> EpisodeDraw:
         """Draw and settle the next episodes of ``slots``: world (curriculum level or uniform),
-        fall (or a stuck episode's end state), randomisation factors."""
+        fall, randomisation factors."""
         k = len(slots)
         env = self.env
         if self.curriculum:
@@ -184,65 +169,10 @@ class RecoveryVecEnv(VecEnv):
         else:
             world_idx = self.rng.integers(len(env.worlds), size=k)
         rngs = self.rng.spawn(k)
-        replayed = np.zeros(k, dtype=bool)
         f = sample_factors(k, self.train_cfg.randomization, self.rng) if self.randomizer is not None else None
-        ends = self._take_stuck_ends(k)
-        if ends:
-            world_idx = np.array(world_idx)
-            factors = f.as_array() if f is not None else None
-            for j, e in ends.items():
-                world_idx[j] = e.world
-                if factors is not None and e.factors is not None:
-                    factors[j] = e.factors
-                replayed[j] = True
-            f = EpisodeFactors.from_array(factors) if factors is not None else None
         models = self._models(world_idx, f)
-        fresh = np.array([j for j in range(k) if j not in ends], dtype=np.int64)
-        if len(fresh):
-            settled = env.settle(world_idx[fresh], [rngs[j] for j in fresh], [models[j] for j in fresh])
-        else:
-            settled = SettledStarts(np.empty((0, env.sl.size)), np.empty((0, env.sens.shape[1])), np.zeros(0, bool))
-        if ends:
-            settled = self._with_end_states(settled, fresh, ends, k)
-        return EpisodeDraw(world_idx, f, models, replayed, settled)
-
-    def _take_stuck_ends(self, k: int) -> dict[int, EndState]:
-        """Rows of a k-row draw that restart from stuck end states (``restart_stuck``), and theirs."""
-        ends: dict[int, EndState] = {}
-        if self.restart_share <= 0:
-            return ends
-        for j in np.flatnonzero(self.rng.random(k) < self.restart_share):
-            if not len(self.stuck_ends):
-                break
-            ends[int(j)] = self.stuck_ends.take(self.rng)
-        return ends
-
-    def _with_end_states(
-        self, settled: SettledStarts, fresh: np.ndarray, ends: dict[int, EndState], k: int
-    ) -> SettledStarts:
-        """k starts: the settled falls in rows ``fresh``, the end states (clock reset to the
-        settle's end, as for a fall) in the other rows."""
-        state = np.empty((k, self.env.sl.size))
-        sens = np.empty((k, self.env.sens.shape[1]))
-        diverged = np.zeros(k, dtype=bool)
-        state[fresh], sens[fresh], diverged[fresh] = settled.state, settled.sens, settled.diverged
-        for j, e in ends.items():
-            state[j], sens[j] = e.state, e.sens
-            state[j, self.env.sl.time] = self.env.cfg.fall.settle_s
-        return SettledStarts(state=state, sens=sens, diverged=diverged)
-
-    def _keep_stuck_ends(self, ids: torch.Tensor, in_goal: torch.Tensor, excluded: torch.Tensor) -> None:
-        """Keep the end states of finished episodes that did not end in the goal set
-        (``in_goal``, per id: ``_ended_in_goal``; ``excluded``: diverged or off the tile, whose
-        end says nothing useful)."""
-        stuck = ~in_goal & ~excluded[ids]
-        env = self.env
-        if self.tilted_only and stuck.any():
-            rs = env.robot_state(ids.numpy())
-            stuck &= ~upright(rs.roll, rs.pitch, env.cfg.goal)
-        for i in ids[stuck].tolist():
-            factors = self.slot_factors[i].copy() if self.randomizer is not None else None
-            self.stuck_ends.put(EndState(int(env.world_idx[i]), factors, env.state[i].copy(), env.sens[i].copy()))
+        settled = env.settle(world_idx, rngs, models)
+        return EpisodeDraw(world_idx, f, models, settled)
 
     def _models(self, world_idx: np.ndarray, f: EpisodeFactors | None) -> list[mujoco.MjModel]:
         """The episodes' models: randomised copies of their worlds' models, or those models."""
@@ -258,7 +188,6 @@ class RecoveryVecEnv(VecEnv):
         if draw.factors is not None:
             env.factors[t] = draw.factors.as_tensor()
             env.friction[t] = torch.from_numpy(draw.factors.friction).float()
-            self.slot_factors[ids] = draw.factors.as_array()
         else:
             env.factors[t] = 1.0
         self.episode_length_buf[t] = 0
@@ -266,21 +195,16 @@ class RecoveryVecEnv(VecEnv):
         self.low_streak[t] = 0
         if self.student_frames is not None:
             self.student_frames.reset(ids)
-        if self.label_frames is not None:
-            self.label_frames.reset(ids)
-        self.replayed[t] = torch.from_numpy(draw.replayed)
         self.ever_succeeded[t] = False
         for s in self.episode_sums.values():
             s[t] = 0.0
 
     # ------------------------------------------------------------ observations
     def _observe(self) -> TensorDict:
-        """The observation groups of the current states. The labels' frames take the exact
-        ``student`` observation; the sensor noise (``RandomizationConfig.sensor_noise``) then
-        goes onto the ``student`` group, and so into the student's history frames."""
+        """The observation groups of the current states. The sensor noise
+        (``RandomizationConfig.sensor_noise``) goes onto the ``student`` group, and so into the
+        student's history frames."""
         groups = self.env.observe()
-        if self.label_frames is not None:
-            groups[LABEL_GROUP] = self.label_frames.push(np.arange(self.num_envs), groups["student"])
         if self.sensor_noise_std is not None:
             z = self.noise_rng.standard_normal(tuple(groups["student"].shape), dtype=np.float32)
             groups["student"] = groups["student"] + self.sensor_noise_std * torch.from_numpy(z)
@@ -317,7 +241,7 @@ class RecoveryVecEnv(VecEnv):
 
         self.episode_length_buf += 1
         self.ever_succeeded |= out.succeeded
-        if self.track_tail:
+        if self.curriculum:
             in_tail = self.episode_length_buf > self.max_episode_length - self.window
             self.tail_goal_steps += (out.in_goal & in_tail).long()
         terminated = out.failed & diverged
@@ -350,9 +274,6 @@ class RecoveryVecEnv(VecEnv):
                 self._update_levels(done_ids, in_goal, left_tile[done_ids])
                 log["Curriculum/mean_level"] = self.level.float().mean()
                 log["Curriculum/at_top"] = (self.level == len(self.env.worlds) - 1).float().mean()
-            if self.restart_share > 0:
-                self._keep_stuck_ends(done_ids, in_goal, diverged | left_tile)
-                log["Episode/replayed_share"] = self.replayed[done_ids].float().mean()
             self._reset(done_ids.numpy())
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
@@ -377,7 +298,7 @@ class RecoveryVecEnv(VecEnv):
 
     def _ended_in_goal(self, ids: torch.Tensor) -> torch.Tensor:
         """Whether the finished episodes in slots ``ids`` spent at least half of their final
-        ``window`` steps in the goal set: what the curriculum and ``restart_stuck`` call success."""
+        ``window`` steps in the goal set: what the curriculum calls success."""
         return self.tail_goal_steps[ids] * 2 >= self.window
 
     def _update_levels(self, ids: torch.Tensor, in_goal: torch.Tensor, left_tile: torch.Tensor) -> None:
