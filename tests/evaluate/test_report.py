@@ -107,3 +107,17 @@ def test_report_refuses_an_unknown_policy_in_one_line(tmp_path, capsys):
     assert main(["report", "--grid", "tiny", "--policies", "nope", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown policy 'nope'" in err[0]
+
+
+def test_published_report_leaves_out_the_episode_files_and_their_links(report, tmp_path):
+    import runpy
+
+    publish = runpy.run_path(str(Path(__file__).resolve().parents[2] / "scripts" / "publish_report.py"))["publish"]
+    dest = tmp_path / "docs_report"
+    files = publish(report, dest)
+    assert files and not any(p.name == "episodes.csv" for p in files)
+    page = (dest / "index.html").read_text()
+    names = [n for n in re.findall(r'(?:src|href)="([^"]+)"', page) if not n.startswith("#")]
+    assert names and all((dest / n).is_file() for n in names)
+    assert all((dest / n).is_file() for n in re.findall(r"\]\(([^)]+)\)", (dest / "report.md").read_text()))
+    assert "summary.json" in page and "episodes.csv" not in page
