@@ -192,7 +192,7 @@ def _inline(text: str) -> str:
 STYLE = ("body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;line-height:1.4;color:#222}"
          "img{max-width:100%;border:1px solid #ddd}figure{margin:0}figcaption{font-size:.85em;color:#555}"
          ".figs{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-start;margin:1em 0}"
-         ".figs figure{flex:1 1 300px;max-width:560px}nav{columns:2;font-size:.95em}"
+         ".figs figure{flex:1 1 520px;max-width:100%}nav{columns:2;font-size:.95em}"
          "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:.3em .6em;font-size:.9em}"
          "th{background:#f3f3f3}td.supported{background:#e3f6e3}td.not-supported{background:#fbe4e4}")
 
@@ -227,7 +227,8 @@ def to_html(blocks: list[Block]) -> str:
             if not in_row:
                 parts.append('<div class="figs">')
                 in_row = True
-            parts.append(f'<figure><img src="{html.escape(b[1])}" alt="{html.escape(b[2])}">'
+            src = html.escape(b[1])  # a click opens the figure at full size
+            parts.append(f'<figure><a href="{src}"><img src="{src}" alt="{html.escape(b[2])}"></a>'
                          f"<figcaption>{html.escape(b[2])}</figcaption></figure>")
         elif b[0] == "table":
             head = "".join(f"<th>{html.escape(h)}</th>" for h in b[1])
