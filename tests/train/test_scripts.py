@@ -174,7 +174,7 @@ REMOVED_OFF = {
     "train_config.distillation.fallback_teacher": None,
     "train_config.distillation.stance_ramp_s": 0.0,
 }
-"""Recorded settings that are no longer options (``git show 36476615:src/selfright/train/config.py``),
+"""Recorded settings the train command has no option for (``git show 36476615:src/selfright/train/config.py``),
 at the value that turns each off: a shipped run that recorded another could not be retrained."""
 
 NOT_SETTABLE: dict[str, set[str]] = {}
@@ -272,7 +272,7 @@ def test_the_recipe_trains_each_checkpoint_a_later_run_reads_and_ships_the_six(t
 def test_the_recipe_resolves_to_the_recorded_configuration_of_each_shipped_run(name, tmp_path):
     """The recipe's last command of a shipped policy's run builds the training and benchmark
     configuration its ``train_meta.json`` records (bookkeeping aside; settings added since at
-    the value the code had before them; recorded settings that are no longer options ignored),
+    the value the code had before them; recorded settings without an option ignored),
     with its role, context, seed, envs and sources."""
     run, _ = SHIPPED[name]
     meta = json.loads((REPO / "runs" / run / "train_meta.json").read_text())
@@ -287,7 +287,7 @@ def test_the_recipe_resolves_to_the_recorded_configuration_of_each_shipped_run(n
     assert (str(first.init_from) if first.init_from else None) == moved(meta.get("init_from"))
     assert (str(last.teacher) if last.teacher else None) == moved(meta.get("teacher"))
 
-    now = resolved(last)  # what the code still has: a recorded setting that is no longer an option is left out
+    now = resolved(last)  # what the code still has: a recorded setting without an option is left out
     recorded = flat_dict({"train_config": meta["train_config"], "benchmark_config": meta["benchmark_config"]})
     assert not meta.get("labels_from_student")  # taught by a teacher, not by a student
     assert all(recorded.get(k, off) == off for k, off in REMOVED_OFF.items()), {k: recorded.get(k) for k in REMOVED_OFF}
