@@ -8,6 +8,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +31,8 @@ HEATMAPS = (
 """(figure, summary key, scale, title, colour-bar label, number format, colour map, (vmin, vmax))."""
 
 Block = tuple
-"""One piece of the page: ("h1"|"h2"|"h3"|"p", text), ("img", src, caption) or ("table", header, rows)."""
+"""One piece of the page: ("h1"|"h2"|"h3"|"p", text), ("img", src, caption), ("table", header, rows) or
+("nav", section titles): links to the page's ``h2`` sections (the HTML page only)."""
 
 
 def box_cells(cells: list[dict[str, Any]], box: dict[str, Any], tolerance_deg: float = 3.0) -> list[dict[str, Any]]:
@@ -161,6 +163,7 @@ def write_report(out_dir: str | Path) -> tuple[Path, Path]:
                ("p", f"Verdicts use a success rate of {100 * claims.GOOD_RATE:.0f} % for \"does well\" and a margin of "
                      f"{100 * claims.MARGIN:.0f} points for \"better\" (selfright.evaluate.claims)."),
                ("table", ["claim (seed)", "policy", "ours", "verdict"], claim_rows(out, entries))]
+    blocks.insert(2, ("nav", [b[1] for b in blocks if b[0] == "h2"]))  # after the opening paragraph
     md, page = out / "report.md", out / "index.html"
     md.write_text(to_markdown(blocks))
     page.write_text(to_html(blocks))
@@ -184,8 +187,6 @@ def to_markdown(blocks: list[Block]) -> str:
 
 def _inline(text: str) -> str:
     """Escape ``text`` for HTML, turning markdown links ``[a](b)`` into anchors."""
-    import re
-
     return re.sub(r"\[([^\]]+)\]\(([^)]+)\)", r'<a href="\2">\1</a>', html.escape(text, quote=False))
 
 
@@ -199,19 +200,15 @@ STYLE = ("body{font-family:sans-serif;max-width:1200px;margin:2em auto;padding:0
 
 def _anchor(title: str) -> str:
     """An HTML id for a section title ("Policy flat" → "policy-flat")."""
-    import re
-
     return re.sub(r"[^a-z0-9]+", "-", title.lower()).strip("-")
 
 
 def to_html(blocks: list[Block]) -> str:
-    """The page: figures that follow each other share a wrapping row; a list of the sections
-    follows the opening paragraph."""
+    """The page: figures that follow each other share a wrapping row."""
     parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
              "<title>Self-righting benchmark report</title>", f"<style>{STYLE}</style></head><body>"]
-    sections = [b[1] for b in blocks if b[0] == "h2"]
     in_row = False
-    for i, b in enumerate(blocks):
+    for b in blocks:
         if b[0] != "img" and in_row:
             parts.append("</div>")
             in_row = False
@@ -220,9 +217,9 @@ def to_html(blocks: list[Block]) -> str:
             parts.append(f"<{b[0]}{anchor}>{html.escape(b[1])}</{b[0]}>")
         elif b[0] == "p":
             parts.append(f"<p>{_inline(b[1])}</p>")
-            if i == 1 and sections:
-                items = "".join(f'<li><a href="#{_anchor(t)}">{html.escape(t)}</a></li>' for t in sections)
-                parts.append(f"<nav><ul>{items}</ul></nav>")
+        elif b[0] == "nav":
+            items = "".join(f'<li><a href="#{_anchor(t)}">{html.escape(t)}</a></li>' for t in b[1])
+            parts.append(f"<nav><ul>{items}</ul></nav>")
         elif b[0] == "img":
             if not in_row:
                 parts.append('<div class="figs">')
