@@ -156,3 +156,22 @@ def test_goal_set_term_only_with_a_weight():
     torch.testing.assert_close(total - base, torch.tensor([0.1, 0.0, 0.1]))
     with pytest.raises(ValueError, match="in_goal"):
         R.reward_terms(make_state(), make_ctx(), cfg)
+
+
+def test_bar_ramp_pays_each_centimetre_of_an_upright_stance_under_the_bar():
+    """make_state's envs stand 0.32, 0.22 and 0.10 m over their feet."""
+    rs = make_state()
+    ctx = dataclasses.replace(make_ctx(), stance=torch.tensor([True, True, False]), goal_bar_m=0.37)
+    cfg = RewardConfig(bar_ramp=2.0, bar_ramp_width_m=0.1, bar_ramp_over_m=0.0)
+    assert "bar_ramp" not in R.reward_terms(rs, ctx, RewardConfig())
+    # 5 cm under the bar: half; 15 cm under: nothing; not upright on four feet: nothing
+    expected = torch.tensor([0.5, 0.0, 0.0])
+    torch.testing.assert_close(R.reward_terms(rs, ctx, cfg)["bar_ramp"], expected)
+    over = dataclasses.replace(ctx, goal_bar_m=0.30)  # 2 cm over the bar: all; 8 cm under: a fifth
+    torch.testing.assert_close(R.reward_terms(rs, over, cfg)["bar_ramp"], torch.tensor([1.0, 0.2, 0.0]))
+    _, weighted = R.weighted_rewards(rs, ctx, cfg, 0.02)
+    torch.testing.assert_close(weighted["bar_ramp"], 2.0 * expected * 0.02)
+    margin = dataclasses.replace(cfg, bar_ramp_over_m=0.05)  # the ramp tops out 5 cm over the bar
+    torch.testing.assert_close(R.reward_terms(rs, ctx, margin)["bar_ramp"], torch.tensor([0.0, 0.0, 0.0]))
+    with pytest.raises(ValueError, match="bar_ramp"):
+        R.reward_terms(rs, make_ctx(), cfg)

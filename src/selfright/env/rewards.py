@@ -43,6 +43,17 @@ class RewardConfig:
     separates a crouch at 0.30 m from a stance at 0.35 m by 0.1/s (the base-height term) against
     8/s for four feet down, so on slopes its optimum can sit under the goal bar; this term pays for
     being over it. A model card names it when its policy used it."""
+    bar_ramp: float = 0.0
+    """**Not in Table I.** Weight of the bar ramp: while the robot stands upright on four feet
+    (the goal set's tilt and contact conditions), clamp((z − (top − w)) / w, 0, 1) with z the
+    body height over the feet, top = the goal set's height bar + ``bar_ramp_over_m`` and w
+    ``bar_ramp_width_m``; else 0 (per s). 0 = off. Table I's base-height term changes by 0.1/s
+    between 0.30 and 0.35 m; this term pays each centimetre of a stance up to just over the bar,
+    a gradient toward it. A model card names it when its policy used it."""
+    bar_ramp_width_m: float = 0.1
+    """Width w of the bar ramp (m): a stance w under its top earns 0, one at its top the full weight."""
+    bar_ramp_over_m: float = 0.02
+    """How far over the goal bar the bar ramp tops out (m): a margin against standing on the bar."""
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None
@@ -114,6 +125,13 @@ def all_feet_contact(rs: RobotState) -> torch.Tensor:
     return rs.feet_contact.all(dim=-1).float()
 
 
+def bar_ramp(rs: RobotState, stance: torch.Tensor, top_m: float, width_m: float) -> torch.Tensor:
+    """(n,) clamp((z − (top_m − width_m)) / width_m, 0, 1) where ``stance`` ((n,) bool: upright on
+    four feet), else 0; z the body height over the feet (m). Not a Table I term."""
+    ramp = ((rs.height_over_feet.float() - (top_m - width_m)) / width_m).clamp(0.0, 1.0)
+    return ramp * stance.float()
+
+
 def goal_set_indicator(in_goal: torch.Tensor) -> torch.Tensor:
     """(n,) 1 while in the goal set (``in_goal``, (n,) bool), else 0. Not a Table I term."""
     return in_goal.float()
@@ -139,10 +157,15 @@ class RewardContext:
     """Standing height z* over the feet (m), a scalar or (n,) per env."""
     in_goal: torch.Tensor | None = None
     """(n,) bool, in the goal set after this step; needed only by the ``goal_set`` term."""
+    stance: torch.Tensor | None = None
+    """(n,) bool, upright on four feet after this step; needed only by the ``bar_ramp`` term."""
+    goal_bar_m: float | None = None
+    """The goal set's height bar (m); needed only by the ``bar_ramp`` term."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` where its weight is nonzero."""
+    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` and ``bar_ramp`` where their
+    weights are nonzero."""
     terms = {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
@@ -158,6 +181,10 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         if ctx.in_goal is None:
             raise ValueError("the goal_set reward term needs RewardContext.in_goal")
         terms["goal_set"] = goal_set_indicator(ctx.in_goal)
+    if cfg.bar_ramp != 0.0:
+        if ctx.stance is None or ctx.goal_bar_m is None:
+            raise ValueError("the bar_ramp reward term needs RewardContext.stance and goal_bar_m")
+        terms["bar_ramp"] = bar_ramp(rs, ctx.stance, ctx.goal_bar_m + cfg.bar_ramp_over_m, cfg.bar_ramp_width_m)
     return terms
 
 
@@ -176,6 +203,8 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
     }
     if cfg.goal_set != 0.0:
         weights["goal_set"] = cfg.goal_set
+    if cfg.bar_ramp != 0.0:
+        weights["bar_ramp"] = cfg.bar_ramp
     return weights
 
 

@@ -260,7 +260,7 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
                       *lines[i + 2:]]) + "\n"
 
 
-OWN_WORDS = ("target_height_m", "goal_set")
+OWN_WORDS = ("target_height_m", "goal_set", "bar_ramp", "bar_ramp_width_m", "bar_ramp_over_m")
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
 
@@ -297,11 +297,19 @@ def reward_summary(meta: dict[str, Any]) -> str:
         over_feet = episode.get("low_stance_over_feet_m")
         bar = "the goal bar" if over_feet is None else f"{over_feet} m above the ground under the feet"
         rule += f"; training episodes ended as terminal after {low} s upright on {stance} under {bar} (not in the seed)"
-    goal = reward.get("goal_set") or 0.0
-    if goal:
+    extra = []
+    if goal := reward.get("goal_set") or 0.0:
+        extra.append(("a goal-set term", f"{goal} per s in the goal set"))
+    if ramp := reward.get("bar_ramp") or 0.0:
+        width = reward.get("bar_ramp_width_m", RewardConfig().bar_ramp_width_m)
+        over = reward.get("bar_ramp_over_m", RewardConfig().bar_ramp_over_m)
+        extra.append(("a bar-ramp term", f"up to {ramp} per s standing upright on four feet, rising over the "
+                                         f"{width} m under a top {over} m over the goal bar"))
+    if extra:
+        names = " and ".join(name for name, _ in extra)
+        what = "; ".join(words for _, words in extra)
         terms = f"; {'; '.join(changed)}" if changed else ""
-        return (f"the seed's Table I terms **plus a goal-set term** (not in Table I), {goal} per s in the goal set"
-                f"{terms} (z* = {z_txt}){rule}")
+        return f"the seed's Table I terms **plus {names}** (not in Table I), {what}{terms} (z* = {z_txt}){rule}"
     if not changed:
         return f"{TABLE_I_WORDS} (z* = {z_txt}){rule}"
     return f"**not** the seed's Table I: {'; '.join(changed)} (z* = {z_txt}){rule}"

@@ -236,6 +236,8 @@ class RecoveryVecEnv(VecEnv):
             joint_high=self.joint_high,
             target_height_m=self.target_height_m,
             in_goal=out.in_goal,
+            stance=self._stance(out.state) if self.train_cfg.reward.bar_ramp else None,
+            goal_bar_m=self.goal_bar_m,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
@@ -278,6 +280,10 @@ class RecoveryVecEnv(VecEnv):
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
+
+    def _stance(self, state: RobotState) -> torch.Tensor:
+        """(n,) bool: upright (the goal set's tilt) on four feet, at any height."""
+        return upright(state.roll, state.pitch, self.env.cfg.goal) & state.feet_contact.all(dim=-1)
 
     def _low_stance_ended(self, state: RobotState, in_goal: torch.Tensor) -> torch.Tensor:
         """(n,) bool: the robot has now stood upright on four feet under the goal bar for
