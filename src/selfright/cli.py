@@ -263,13 +263,14 @@ def run_yaw_study(a: YawStudy) -> None:
 def run_report(a: Report) -> None:
     """``selfright report``."""
     from selfright.evaluate.report import context_boxes, run_report as run
-    from selfright.plots.report_page import write_report
+    from selfright.plots.report_page import draw_figures, write_report
     from selfright.train.config import EpisodeConfig
 
     stems = [policy_stem(p) for p in a.policies]
     run(list(zip(a.policies, stems)), grid=a.grid, episodes=a.episodes, seed=a.seed, out_dir=a.out, cfg=a.bench_config(),
         boxes=context_boxes(EpisodeConfig().rough_max_extent_m), slopes_deg=a.slopes_deg, progress=a.progress,
         fall_cache=a.fall_cache, executor=a.executor, ray_address=a.ray_address)
+    draw_figures(a.out)
     md, page = write_report(a.out)
     print(f"report: {page} ({md})")
 

@@ -116,9 +116,14 @@ def test_published_report_leaves_out_the_episode_files_and_their_links(report, t
     publish = runpy.run_path(str(Path(__file__).resolve().parents[2] / "scripts" / "publish_report.py"))["publish"]
     dest = tmp_path / "docs_report"
     files = publish(report, dest)
-    assert files and not any(p.name == "episodes.csv" for p in files)
-    page = (dest / "index.html").read_text()
+    kept = {p.relative_to(report) for p in report.rglob("*") if p.is_file() and p.name != "episodes.csv"}
+    assert files and {p.relative_to(dest) for p in files} == kept
+    page, md = (dest / "index.html").read_text(), (dest / "report.md").read_text()
     names = [n for n in re.findall(r'(?:src|href)="([^"]+)"', page) if not n.startswith("#")]
-    assert names and all((dest / n).is_file() for n in names)
-    assert all((dest / n).is_file() for n in re.findall(r"\]\(([^)]+)\)", (dest / "report.md").read_text()))
-    assert "summary.json" in page and "episodes.csv" not in page
+    links = re.findall(r"\]\(([^)]+)\)", md)
+    assert names and links and all((dest / n).is_file() for n in names + links)
+    assert "episodes.csv" in (report / "index.html").read_text()  # the report itself links them
+    assert "summary.json" in page and "episodes.csv" not in page and "episodes.csv" not in md
+    dropped = {"index.html": r', <a href="[^"]+/episodes\.csv">[^<]*</a>', "report.md": r", \[[^\]]*\]\([^)]+/episodes\.csv\)"}
+    for name, link in dropped.items():  # otherwise the report's own pages
+        assert (dest / name).read_text() == re.sub(link, "", (report / name).read_text()), name

@@ -1,9 +1,9 @@
-"""The report page's pieces: training-context boxes on the grid, markdown and HTML output."""
+"""The report page's pieces: training-context boxes on the grid, data links, markdown and HTML output."""
 
 import math
 
 from selfright.plots.heatmaps import build_grid
-from selfright.plots.report_page import box_cells, grid_boxes, to_html, to_markdown
+from selfright.plots.report_page import box_cells, data_links, grid_boxes, to_html, to_markdown
 
 BOXES = [
     {"context": "flat", "slope_deg": 0.0, "extent_low_m": 0.0, "extent_high_m": 0.0},
@@ -34,3 +34,10 @@ def test_markdown_and_html_carry_the_same_blocks():
     assert "# T" in md and "![cap](x/y.png)" in md and "| c | supported |" in md
     assert '<a href="a.csv">a.csv</a> &amp; more' in page and '<img src="x/y.png"' in page
     assert '<td class="supported">supported</td>' in page
+
+
+def test_data_links_name_only_files_that_exist(tmp_path):
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "summary.json").write_text("{}")
+    assert data_links(tmp_path, ["p/summary.json", "p/episodes.csv"]) == "Data: [p/summary.json](p/summary.json)."
+    assert data_links(tmp_path, ["p/episodes.csv"]) == ""

@@ -1,7 +1,12 @@
 """The report of ``selfright report``: ``report.md`` and a self-contained ``index.html`` (PNG
 figures beside it), in the seed's order: per policy the success / TTR / DTR heatmaps with the
 training contexts boxed, the TTR / DTR histograms, then Table II beside our yaw study, then the
-seed's claims with our numbers. Reads only result files (``report.json`` and the folders it lists)."""
+seed's claims with our numbers. Reads only result files (``report.json`` and the folders it lists).
+
+``draw_figures`` draws the PNGs (from ``summary.json``, ``episodes.csv`` and ``yaw.csv``);
+``write_report`` writes the two pages from ``report.json``, ``summary.json`` and ``yaw.csv``
+alone and links a policy's raw files only where they are in the folder, so it also writes the
+pages of a published copy that leaves ``episodes.csv`` out (``scripts/publish_report.py``)."""
 
 from __future__ import annotations
 
@@ -29,6 +34,13 @@ HEATMAPS = (
     ("dtr", "dtr_mean_m", 1.0, "Mean distance to recover (m)", "distance to recover (m)", ".3f", "magma_r", (None, None)),
 )
 """(figure, summary key, scale, title, colour-bar label, number format, colour map, (vmin, vmax))."""
+HISTOGRAMS = (
+    ("ttr_hist", "ttr_s", TTR_BIN_S, "time to recover (s)"),
+    ("dtr_hist", "dtr_m", DTR_BIN_M, "distance to recover (m)"),
+)
+"""(figure, ``episodes.csv`` column of the successful episodes, bin width, axis label)."""
+RAW_FILES = ("summary.json", "episodes.csv")
+"""A policy's result files the page links to, each where it is in the policy's folder."""
 
 Block = tuple
 """One piece of the page: ("h1"|"h2"|"h3"|"p", text), ("img", src, caption), ("table", header, rows) or
@@ -60,31 +72,57 @@ def grid_boxes(grid: CellGrid, cells: list[dict[str, Any]], boxes: list[dict[str
     return out
 
 
-def policy_figures(folder: Path, name: str, boxes: list[dict[str, Any]]) -> list[Block]:
-    """Draw one policy's heatmaps and histograms into ``folder``; returns their page blocks
-    (image paths relative to the report, i.e. ``folder.name/...``)."""
+def read_manifest(out: Path) -> dict[str, Any]:
+    """The ``report.json`` in ``out`` (written by ``selfright.evaluate.report.run_report``)."""
+    path = out / "report.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} not found; run selfright report to produce it first")
+    return json.loads(path.read_text())
+
+
+def _tag(name: str, summary: dict[str, Any]) -> str:
+    """A policy's figure subtitle: its name, grid and episodes per cell."""
+    return f"{name} on {summary['grid']}, {summary['episodes_per_cell']} episodes/cell"
+
+
+def draw_policy_figures(folder: Path, name: str, boxes: list[dict[str, Any]]) -> None:
+    """Draw one policy's heatmaps (from ``summary.json``, ``boxes`` its training contexts) and
+    histograms (from ``episodes.csv``) into ``folder`` as ``report_FIGURE.png``."""
     summary = json.loads((folder / "summary.json").read_text())
     cells = summary["cells"]
     grid = build_grid(cells)
     drawn = grid_boxes(grid, cells, boxes)
-    tag = f"{name} on {summary['grid']}, {summary['episodes_per_cell']} episodes/cell"
-    o = summary["overall"]
-    blocks: list[Block] = [
-        ("h2", f"Policy {name}"),
-        ("p", f"Overall: {o['successes']} of {o['n']} episodes recovered ({100 * o['success_rate']:.1f} %). "
-              f"Data: [{folder.name}/summary.json]({folder.name}/summary.json), "
-              f"[{folder.name}/episodes.csv]({folder.name}/episodes.csv)."),
-    ]
+    tag = _tag(name, summary)
     for fig, key, scale, title, label, fmt, cmap, (lo, hi) in HEATMAPS:
         heatmap(grid, grid.values(key, scale), title=f"{title}\n{tag}", cbar_label=label, fmt=fmt, cmap_name=cmap,
                 vmin=lo, vmax=hi, path=folder / f"report_{fig}.png", boxes=drawn, compact=True)
-        blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{title}, {tag}; training contexts boxed")))
-    episodes = folder / "episodes.csv"
-    for fig, col, width, label in (("ttr_hist", "ttr_s", TTR_BIN_S, "time to recover (s)"),
-                                   ("dtr_hist", "dtr_m", DTR_BIN_M, "distance to recover (m)")):
-        histogram(read_successful(episodes, col), bin_width=width, xlabel=label, path=folder / f"report_{fig}.png",
-                   title=f"{label[0].upper()}{label[1:]}, successful episodes, bins of {width:g}\n{tag}")
-        blocks.append(("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{label}, bins of {width:g}")))
+    for fig, col, width, label in HISTOGRAMS:
+        histogram(read_successful(folder / "episodes.csv", col), bin_width=width, xlabel=label,
+                  path=folder / f"report_{fig}.png",
+                  title=f"{label[0].upper()}{label[1:]}, successful episodes, bins of {width:g}\n{tag}")
+
+
+def data_links(out: Path, names: list[str]) -> str:
+    """``Data: [a](a), [b](b).`` for those of ``names`` (paths relative to ``out``) that are files
+    in ``out``; empty when none is."""
+    present = [n for n in names if (out / n).is_file()]
+    return f"Data: {', '.join(f'[{n}]({n})' for n in present)}." if present else ""
+
+
+def policy_blocks(folder: Path, name: str) -> list[Block]:
+    """One policy's page blocks, from its ``summary.json``: overall success, links to those of its
+    ``RAW_FILES`` that are in ``folder``, and its figures (image paths relative to the report,
+    i.e. ``folder.name/...``)."""
+    summary = json.loads((folder / "summary.json").read_text())
+    tag = _tag(name, summary)
+    o = summary["overall"]
+    overall = f"Overall: {o['successes']} of {o['n']} episodes recovered ({100 * o['success_rate']:.1f} %)."
+    links = data_links(folder.parent, [f"{folder.name}/{f}" for f in RAW_FILES])
+    blocks: list[Block] = [("h2", f"Policy {name}"), ("p", f"{overall} {links}".rstrip())]
+    blocks += [("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{title}, {tag}; training contexts boxed"))
+               for fig, _, _, title, *_ in HEATMAPS]
+    blocks += [("img", f"{folder.name}/report_{fig}.png", _caption(name, fig, f"{label}, bins of {width:g}"))
+               for fig, _, width, label in HISTOGRAMS]
     return blocks
 
 
@@ -94,15 +132,15 @@ def _caption(policy: str, fig: str, text: str) -> str:
 
 
 def table_ii_blocks(out: Path, entries: list[dict[str, str]]) -> list[Block]:
-    """Table II beside each policy's yaw study (hardware-rule recoveries, benchmark successes)."""
+    """Table II beside each policy's yaw study (hardware-rule recoveries, benchmark successes), from
+    its ``yaw.csv``; the figure is ``yaw/yaw.png``."""
     blocks: list[Block] = [("h2", "Yaw study: Table II"),
                            ("p", "Recoveries within less than one full roll and without leaving the incline (the seed's "
                                  "hardware rule), from headings within ±15° of down-, up- and cross-slope "
                                  "(docs/benchmark.md, *Yaw study*). Seed: ✓ recovered on the A1, ✗ did not.")]
     for e in entries:
-        yaw = out / e["folder"] / "yaw"
-        plot_yaw(yaw)
-        rows = read_yaw_table(yaw / "yaw.csv")
+        yaw_csv = f"{e['folder']}/yaw/yaw.csv"
+        rows = read_yaw_table(out / yaw_csv)
         by = {(float(r["slope_deg"]), r["direction"]): r for r in rows}
         slopes = sorted({s for s, _ in by})
         table = [[f"{s:g}°"] + [
@@ -111,7 +149,7 @@ def table_ii_blocks(out: Path, entries: list[dict[str, str]]) -> list[Block]:
             for d in DIRECTIONS] for s in slopes]
         blocks += [("h3", f"{e['name']}"), ("table", ["incline"] + [COLUMN_TITLES[d] for d in DIRECTIONS], table),
                    ("img", f"{e['folder']}/yaw/yaw.png", f"{e['name']}: yaw study laid out like the seed's Table II"),
-                   ("p", f"Data: [{e['folder']}/yaw/yaw.csv]({e['folder']}/yaw/yaw.csv).")]
+                   ("p", data_links(out, [yaw_csv]))]
     return blocks
 
 
@@ -140,14 +178,22 @@ def claim_rows(out: Path, entries: list[dict[str, str]]) -> list[list[str]]:
     return rows
 
 
-def write_report(out_dir: str | Path) -> tuple[Path, Path]:
-    """Draw every figure and write ``report.md`` and ``index.html`` into ``out_dir`` (which holds
-    the ``report.json`` of ``selfright.evaluate.report.run_report``); returns both paths."""
+def draw_figures(out_dir: str | Path) -> None:
+    """Draw every figure of the report in ``out_dir`` (which holds the ``report.json`` of
+    ``selfright.evaluate.report.run_report``): each policy's heatmaps, histograms and yaw table."""
     out = Path(out_dir)
-    manifest_path = out / "report.json"
-    if not manifest_path.is_file():
-        raise FileNotFoundError(f"{manifest_path} not found; run selfright report to produce it first")
-    m = json.loads(manifest_path.read_text())
+    m = read_manifest(out)
+    for e in m["policies"]:
+        draw_policy_figures(out / e["folder"], e["name"], m["context_boxes"])
+        plot_yaw(out / e["folder"] / "yaw")
+
+
+def write_report(out_dir: str | Path) -> tuple[Path, Path]:
+    """Write ``report.md`` and ``index.html`` into ``out_dir`` (which holds the ``report.json`` of
+    ``selfright.evaluate.report.run_report`` and the figures of ``draw_figures``); returns both
+    paths. Reads ``report.json``, each policy's ``summary.json`` and ``yaw.csv``, never ``episodes.csv``."""
+    out = Path(out_dir)
+    m = read_manifest(out)
     entries = m["policies"]
     blocks: list[Block] = [
         ("h1", "Self-righting benchmark report"),
@@ -157,7 +203,7 @@ def write_report(out_dir: str | Path) -> tuple[Path, Path]:
               "contexts (c_FLAT, c_ROUGH, c_INCLINE; a box appears where the grid has its cells)."),
     ]
     for e in entries:
-        blocks += policy_figures(out / e["folder"], e["name"], m["context_boxes"])
+        blocks += policy_blocks(out / e["folder"], e["name"])
     blocks += table_ii_blocks(out, entries)
     blocks += [("h2", "The seed's claims and our numbers"),
                ("p", f"Verdicts use a success rate of {100 * claims.GOOD_RATE:.0f} % for \"does well\" and a margin of "
