@@ -155,6 +155,19 @@ def test_actor_rows_do_not_depend_on_the_batch(width: int):
     assert torch.equal(out, alone[:9])
 
 
+def test_blocked_product_equals_one_product_per_block():
+    """The rows' linear layer computes its (ROW_BLOCK, D) blocks in one batched product; each
+    block's bits are those of the block's own product."""
+    from selfright.policies.actor import ROW_BLOCK, _linear_rows
+
+    gen = torch.Generator().manual_seed(5)
+    w, b = torch.randn(512, 1125, generator=gen), torch.randn(512, generator=gen)
+    x = torch.randn(3 * ROW_BLOCK + 5, 1125, generator=gen)
+    xp = torch.nn.functional.pad(x, (0, 0, 0, ROW_BLOCK - 5))
+    per_block = torch.cat([xp[i : i + ROW_BLOCK] @ w.t() for i in range(0, len(xp), ROW_BLOCK)])[: len(x)] + b
+    assert torch.equal(_linear_rows(x, w, b), per_block)
+
+
 def test_only_feed_forward_actors_load():
     """Metadata of older files may record the architecture keys at their no-op values (loaded);
     a recurrent or state-dependent-std actor is refused in one line."""
