@@ -76,7 +76,7 @@ def report(tmp_path_factory) -> Path:
 def test_report_page_names_only_files_that_exist(report):
     page = (report / "index.html").read_text()
     names = re.findall(r'(?:src|href)="([^"]+)"', page)
-    images = [n for n in re.findall(r'<img src="([^"]+)"', page)]
+    images = re.findall(r'<img src="([^"]+)"', page)
     assert len(images) == 2 * (5 + 1), images  # per policy: 3 heatmaps, 2 histograms, the yaw table
     assert all(f'<a href="{n}"><img src="{n}"' in page for n in images)  # a click opens it full size
     assert "://" not in page  # nothing fetched from the network

@@ -94,6 +94,20 @@ def test_step_shapes_rewards_and_factors(flat_worlds):
 
 
 
+def test_bar_ramp_term_is_paid_and_logged_with_its_weight(flat_worlds):
+    from selfright.env.rewards import RewardConfig
+
+    train = TrainConfig(reward=RewardConfig(bar_ramp=20.0))
+    env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=3, seed=0)
+    with torch.inference_mode():
+        _, _, _, extras = env.step(torch.zeros(3, 12))
+    paid = float(extras["log"]["Reward/bar_ramp"])
+    assert 0.0 <= paid <= 20.0 * env.dt
+    assert "Reward/bar_ramp" not in RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=1, seed=0).step(
+        torch.zeros(1, 12))[3]["log"]
+    env.close()
+
+
 def test_time_out_resets_and_is_reported(flat_worlds):
     train = dataclasses.replace(TrainConfig(), episode=EpisodeConfig(episode_s=0.1))  # 5 control steps
     env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=2, seed=1)

@@ -27,6 +27,12 @@ def upright(roll: torch.Tensor, pitch: torch.Tensor, cfg: GoalConfig) -> torch.T
     return (roll.abs() <= tilt) & (pitch.abs() <= tilt)
 
 
+def upright_on_four_feet(roll: torch.Tensor, pitch: torch.Tensor, feet_contact: torch.Tensor, cfg: GoalConfig) -> torch.Tensor:
+    """(n,) bool: ``upright`` with all four feet down ((n, 4) ``feet_contact``): the goal set
+    but for its height bar."""
+    return upright(roll, pitch, cfg) & feet_contact.all(dim=-1)
+
+
 def in_goal_set(
     roll: torch.Tensor,
     pitch: torch.Tensor,
@@ -45,7 +51,7 @@ def in_goal_set(
     Returns:
         (n,) bool: |roll| ≤ tilt, |pitch| ≤ tilt, all feet down, height ≥ fraction × leg length.
     """
-    return upright(roll, pitch, cfg) & feet_contact.all(dim=-1) & (height >= goal_height_m(cfg, leg_length_m))
+    return upright_on_four_feet(roll, pitch, feet_contact, cfg) & (height >= goal_height_m(cfg, leg_length_m))
 
 
 def robot_in_goal_set(rs: RobotState, cfg: GoalConfig, leg_length_m: float) -> torch.Tensor:

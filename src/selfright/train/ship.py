@@ -301,8 +301,8 @@ def reward_summary(meta: dict[str, Any]) -> str:
     if goal := reward.get("goal_set") or 0.0:
         extra.append(("a goal-set term", f"{goal} per s in the goal set"))
     if ramp := reward.get("bar_ramp") or 0.0:
-        width = reward.get("bar_ramp_width_m", RewardConfig().bar_ramp_width_m)
-        over = reward.get("bar_ramp_over_m", RewardConfig().bar_ramp_over_m)
+        width = reward.get("bar_ramp_width_m", table.bar_ramp_width_m)
+        over = reward.get("bar_ramp_over_m", table.bar_ramp_over_m)
         extra.append(("a bar-ramp term", f"up to {ramp} per s standing upright on four feet, rising over the "
                                          f"{width} m under a top {over} m over the goal bar"))
     if extra:

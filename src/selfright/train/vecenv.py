@@ -32,7 +32,7 @@ from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from selfright.config import BenchmarkConfig, to_dict
-from selfright.env.goal import body_height, goal_height_m, upright
+from selfright.env.goal import body_height, goal_height_m, upright, upright_on_four_feet
 from selfright.env.observations import sensor_noise_std
 from selfright.env.randomization import EpisodeFactors, ModelRandomizer, sample_factors
 from selfright.env.recovery_env import RecoveryEnv
@@ -236,7 +236,8 @@ class RecoveryVecEnv(VecEnv):
             joint_high=self.joint_high,
             target_height_m=self.target_height_m,
             in_goal=out.in_goal,
-            stance=self._stance(out.state) if self.train_cfg.reward.bar_ramp else None,
+            stance=(upright_on_four_feet(out.state.roll, out.state.pitch, out.state.feet_contact, self.env.cfg.goal)
+                    if self.train_cfg.reward.bar_ramp else None),
             goal_bar_m=self.goal_bar_m,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
@@ -280,10 +281,6 @@ class RecoveryVecEnv(VecEnv):
         self._obs = self._observe()
         extras = {"time_outs": time_out.to(self.device), "log": log}
         return self._obs, reward.to(self.device), dones.to(self.device), extras
-
-    def _stance(self, state: RobotState) -> torch.Tensor:
-        """(n,) bool: upright (the goal set's tilt) on four feet, at any height."""
-        return upright(state.roll, state.pitch, self.env.cfg.goal) & state.feet_contact.all(dim=-1)
 
     def _low_stance_ended(self, state: RobotState, in_goal: torch.Tensor) -> torch.Tensor:
         """(n,) bool: the robot has now stood upright on four feet under the goal bar for
