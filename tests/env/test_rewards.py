@@ -175,3 +175,26 @@ def test_bar_ramp_pays_each_centimetre_of_an_upright_stance_under_the_bar():
     torch.testing.assert_close(R.reward_terms(rs, ctx, margin)["bar_ramp"], torch.tensor([0.0, 0.0, 0.0]))
     with pytest.raises(ValueError, match="bar_ramp"):
         R.reward_terms(rs, make_ctx(), cfg)
+
+
+def test_feet_under_hips_is_the_squared_horizontal_offset_of_the_feet_from_their_roots():
+    """Feet straight under their leg roots cost nothing in any trunk attitude; a foot 0.1 m out
+    horizontally costs 0.01 m²; vertical offsets and stances off four feet cost nothing."""
+    roots = torch.tensor([[0.2, -0.13, 0.0], [0.2, 0.13, 0.0], [-0.2, -0.13, 0.0], [-0.2, 0.13, 0.0]])
+    rs = make_state()
+    tilted = rot_x(0.3)
+    rot = torch.stack([tilted, tilted, tilted])
+    feet = rs.pos[:, None, :] + torch.einsum("ij,fj->fi", tilted.double(), roots.double())[None]
+    feet = feet - torch.tensor([0.0, 0.0, 0.3], dtype=torch.float64)  # straight down
+    feet[1, 2, 0] += 0.1  # one foot 0.1 m forward
+    feet[2, 0, 1] += 0.2  # a foot out, but env 2 is not in a stance
+    rs = dataclasses.replace(rs, rot=rot, feet_pos=feet)
+    ctx = dataclasses.replace(make_ctx(), stance=torch.tensor([True, True, False]), leg_roots_m=roots)
+    cfg = RewardConfig(feet_under_hips=5.0)
+    assert "feet_under_hips" not in R.reward_terms(rs, ctx, RewardConfig())
+    expected = torch.tensor([0.0, -0.01, 0.0])
+    torch.testing.assert_close(R.reward_terms(rs, ctx, cfg)["feet_under_hips"], expected)
+    _, weighted = R.weighted_rewards(rs, ctx, cfg, 0.02)
+    torch.testing.assert_close(weighted["feet_under_hips"], 5.0 * expected * 0.02)
+    with pytest.raises(ValueError, match="feet_under_hips"):
+        R.reward_terms(rs, make_ctx(), cfg)

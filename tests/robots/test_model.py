@@ -195,3 +195,29 @@ def _ideal():
     cfg = BenchmarkConfig()
     cfg = dataclasses.replace(cfg, robot=dataclasses.replace(cfg.robot, motor="ideal"))
     return build_world(make_cell(0, 0, cfg.terrain), cfg, ContextConfig(), 0)
+
+
+def test_leg_roots_are_the_thigh_joints_and_a_tall_stance_stands_on_them(world):
+    """``leg_roots_m`` (the ``feet_under_hips`` reward term's anchors) are the thigh joints'
+    origins at zero abduction in any trunk attitude; the tall pose on a level trunk puts each
+    foot straight under its root, and abduction moves it out."""
+    m = world.model
+    d = mujoco.MjData(m)
+    quat = np.array([0.9, 0.2, -0.3, 0.25])
+    d.qpos[:7] = [0.4, -0.2, 0.6, *(quat / np.linalg.norm(quat))]
+    d.qpos[7:] = ROBOT.tall_pose
+    mujoco.mj_kinematics(m, d)
+    rot = d.xmat[m.body("trunk").id].reshape(3, 3)
+    roots = d.qpos[:3] + ROBOT.leg_roots_m @ rot.T
+    thighs = np.array([d.xpos[m.body(g.replace("foot", "thigh")).id] for g in ROBOT.foot_geoms])
+    np.testing.assert_allclose(thighs, roots, atol=1e-9)
+
+    d.qpos[3:7] = [1, 0, 0, 0]
+    mujoco.mj_kinematics(m, d)
+    feet = np.array([d.geom_xpos[m.geom(g).id] for g in ROBOT.foot_geoms])
+    np.testing.assert_allclose(feet[:, :2], d.qpos[:2] + ROBOT.leg_roots_m[:, :2], atol=1e-9)
+    d.qpos[7::3] = 0.3  # every abduction joint
+    mujoco.mj_kinematics(m, d)
+    feet = np.array([d.geom_xpos[m.geom(g).id] for g in ROBOT.foot_geoms])
+    sideways = np.abs(feet[:, 1] - d.qpos[1] - ROBOT.leg_roots_m[:, 1])
+    assert np.all(sideways > 0.05)

@@ -311,6 +311,13 @@ def test_the_reward_line_names_a_bar_ramp_beside_a_goal_set_term():
     assert "up to 20.0 per s" in line and "0.08 m under a top 0.02 m over the goal bar" in line
 
 
+def test_the_reward_line_names_a_feet_under_hips_term():
+    reward = {**to_dict(RewardConfig()), "goal_set": 10.0, "feet_under_hips": 5.0}
+    line = reward_summary({"role": "teacher", "train_config": {"reward": reward}})
+    assert line.startswith("the seed's Table I terms **plus a goal-set term and a feet-under-hips term** (not in Table I)")
+    assert "−5.0 per m²·s" in line and "feet_under_hips" not in line
+
+
 def test_card_record_reads_back_what_a_card_states():
     from selfright.train.ship import card_record
 

@@ -165,6 +165,7 @@ ADDED_AS_BEFORE = {
     "train_config.reward.bar_ramp": 0.0,
     "train_config.reward.bar_ramp_width_m": 0.1,  # these two act only with a bar-ramp weight
     "train_config.reward.bar_ramp_over_m": 0.02,
+    "train_config.reward.feet_under_hips": 0.0,
     "benchmark_config.robot.motor": "ideal",
     "benchmark_config.robot.motor_speed_rad_s": None,
     "benchmark_config.robot.joint_stop_timeconst_s": 0.02,

@@ -94,18 +94,31 @@ def test_step_shapes_rewards_and_factors(flat_worlds):
 
 
 
-def test_bar_ramp_term_is_paid_and_logged_with_its_weight(flat_worlds):
+@pytest.mark.parametrize("term, weight, low, high", [("bar_ramp", 20.0, 0.0, 20.0), ("feet_under_hips", 5.0, -5.0, 0.0)])
+def test_stance_terms_are_paid_and_logged_with_their_weight(flat_worlds, term, weight, low, high):
+    """The terms beyond Table I that read the stance: paid within their bounds (per s × dt; a
+    foot 0.5 m from its root in each of four legs costs 1 m²) and logged only with a weight."""
     from selfright.env.rewards import RewardConfig
 
-    train = TrainConfig(reward=RewardConfig(bar_ramp=20.0))
+    train = TrainConfig(reward=RewardConfig(**{term: weight}))
     env = RecoveryVecEnv(CFG, train, flat_worlds, num_envs=3, seed=0)
     with torch.inference_mode():
         _, _, _, extras = env.step(torch.zeros(3, 12))
-    paid = float(extras["log"]["Reward/bar_ramp"])
-    assert 0.0 <= paid <= 20.0 * env.dt
-    assert "Reward/bar_ramp" not in RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=1, seed=0).step(
+    paid = float(extras["log"][f"Reward/{term}"])
+    assert low * env.dt <= paid <= high * env.dt
+    assert f"Reward/{term}" not in RecoveryVecEnv(CFG, TrainConfig(), flat_worlds, num_envs=1, seed=0).step(
         torch.zeros(1, 12))[3]["log"]
     env.close()
+
+
+def test_feet_under_hips_needs_the_robots_leg_roots(flat_worlds, monkeypatch):
+    from selfright.env import recovery_env
+    from selfright.env.rewards import RewardConfig
+
+    robot = dataclasses.replace(get_robot("a1"), leg_roots_m=None)
+    monkeypatch.setattr(recovery_env, "get_robot", lambda name: robot)
+    with pytest.raises(ValueError, match="leg roots of robot 'a1'"):
+        RecoveryVecEnv(CFG, TrainConfig(reward=RewardConfig(feet_under_hips=5.0)), flat_worlds, num_envs=1, seed=0)
 
 
 def test_time_out_resets_and_is_reported(flat_worlds):

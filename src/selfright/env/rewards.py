@@ -54,6 +54,13 @@ class RewardConfig:
     """Width w of the bar ramp (m): a stance w under its top earns 0, one at its top the full weight."""
     bar_ramp_over_m: float = 0.02
     """How far over the goal bar the bar ramp tops out (m): a margin against standing on the bar."""
+    feet_under_hips: float = 0.0
+    """**Not in Table I.** Weight of −Σ_legs ‖h_leg‖² while the robot stands upright on four feet
+    (the goal set's tilt and contact conditions), else 0 (per m²·s), h_leg the horizontal (world
+    x-y) offset of a foot's centre from its leg root (``RobotSpec.leg_roots_m``, the thigh joint
+    at zero abduction). 0 = off. Legs under their hips are as tall as their knees let them be; a
+    stance with splayed or slanted legs stands lower for the same knee angle. A model card names
+    it when its policy used it."""
     vz_sigma_sq: float = 0.25
     """Width of the vertical-velocity kernel φ(v_z) = exp(−v_z² / vz_sigma_sq) (m²/s²)."""
     target_height_m: float | None = None
@@ -132,6 +139,16 @@ def bar_ramp(rs: RobotState, stance: torch.Tensor, top_m: float, width_m: float)
     return ramp * stance.float()
 
 
+def feet_under_hips(rs: RobotState, stance: torch.Tensor, leg_roots_b: torch.Tensor) -> torch.Tensor:
+    """(n,) −Σ_legs ‖h_leg‖² (m²) where ``stance`` ((n,) bool: upright on four feet), else 0;
+    h_leg the world x-y offset of the foot centre (``RobotState.feet_pos``) from its leg root,
+    ``leg_roots_b`` (F, 3) in the trunk frame placed by the trunk's pose. Not a Table I term."""
+    roots = rs.pos.to(torch.float64)[:, None, :] + torch.einsum(
+        "nij,fj->nfi", rs.rot.to(torch.float64), leg_roots_b.to(torch.float64))
+    offset = (rs.feet_pos.to(torch.float64) - roots)[:, :, :2]
+    return -offset.square().sum(dim=(1, 2)).float() * stance.float()
+
+
 def goal_set_indicator(in_goal: torch.Tensor) -> torch.Tensor:
     """(n,) 1 while in the goal set (``in_goal``, (n,) bool), else 0. Not a Table I term."""
     return in_goal.float()
@@ -161,11 +178,14 @@ class RewardContext:
     """(n,) bool, upright on four feet after this step; needed only by the ``bar_ramp`` term."""
     goal_bar_m: float | None = None
     """The goal set's height bar (m); needed only by the ``bar_ramp`` term."""
+    leg_roots_m: torch.Tensor | None = None
+    """(F, 3) leg roots in the trunk frame (m, ``RobotSpec.leg_roots_m``); needed only by the
+    ``feet_under_hips`` term."""
 
 
 def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[str, torch.Tensor]:
-    """Unweighted Table I terms by name, each (n,), plus ``goal_set`` and ``bar_ramp`` where their
-    weights are nonzero."""
+    """Unweighted Table I terms by name, each (n,), plus ``goal_set``, ``bar_ramp`` and
+    ``feet_under_hips`` where their weights are nonzero."""
     terms = {
         "orientation": upright_cos(rs),
         "vertical_velocity": vertical_velocity_kernel(rs, cfg.vz_sigma_sq),
@@ -185,6 +205,10 @@ def reward_terms(rs: RobotState, ctx: RewardContext, cfg: RewardConfig) -> dict[
         if ctx.stance is None or ctx.goal_bar_m is None:
             raise ValueError("the bar_ramp reward term needs RewardContext.stance and goal_bar_m")
         terms["bar_ramp"] = bar_ramp(rs, ctx.stance, ctx.goal_bar_m + cfg.bar_ramp_over_m, cfg.bar_ramp_width_m)
+    if cfg.feet_under_hips != 0.0:
+        if ctx.stance is None or ctx.leg_roots_m is None:
+            raise ValueError("the feet_under_hips reward term needs RewardContext.stance and leg_roots_m")
+        terms["feet_under_hips"] = feet_under_hips(rs, ctx.stance, ctx.leg_roots_m)
     return terms
 
 
@@ -205,6 +229,8 @@ def reward_weights(cfg: RewardConfig) -> dict[str, float]:
         weights["goal_set"] = cfg.goal_set
     if cfg.bar_ramp != 0.0:
         weights["bar_ramp"] = cfg.bar_ramp
+    if cfg.feet_under_hips != 0.0:
+        weights["feet_under_hips"] = cfg.feet_under_hips
     return weights
 
 

@@ -125,6 +125,7 @@ A1 = RobotSpec(
     # above the goal bar (the knee's upper limit is −0.92 rad).
     tall_pose=_per_leg((0.0, 0.5, -1.0)),
     leg_length_m=0.4,
+    leg_roots_m=np.array([(0.183 * _SIGN[leg][0], (0.047 + 0.08505) * _SIGN[leg][1], 0.0) for leg in LEGS]),
     # Hip axis to foot centre in the stand pose, 2 × 0.2 m × cos 0.6, plus the 0.02 m foot
     # radius: 0.35 m (it settles at 0.336 m under PD sag at Kp 50), 3 cm above the 0.32 m bar.
     stand_height_m=0.35,

@@ -56,6 +56,10 @@ class RobotSpec:
     time constant (s; ``RobotConfig.joint_stop_timeconst_s``) and motor model ``motor``
     (``RobotConfig.motor``; a robot without a given model raises ``ValueError``); with
     ``motor_speed=`` (rad/s; ``RobotConfig.motor_speed_rad_s``) the DC motor's no-load speed."""
+    leg_roots_m: np.ndarray | None = None
+    """(F, 3) each leg's root in the trunk frame (m), ordered like ``foot_geoms``: the thigh
+    joint's origin at zero abduction, the point a vertical leg's foot stands under (the
+    ``feet_under_hips`` reward term). None: not given."""
     tall_pose: np.ndarray | None = None
     """Standing joint angles with straighter legs than ``stand_pose`` (rad), the action
     reference of ``ActionConfig.reference="tall"``; None: the robot has none."""

@@ -260,7 +260,7 @@ def remeasured_card(card_text: str, name: str, summary: dict[str, Any], why: str
                       *lines[i + 2:]]) + "\n"
 
 
-OWN_WORDS = ("target_height_m", "goal_set", "bar_ramp", "bar_ramp_width_m", "bar_ramp_over_m")
+OWN_WORDS = ("target_height_m", "goal_set", "bar_ramp", "bar_ramp_width_m", "bar_ramp_over_m", "feet_under_hips")
 """``RewardConfig`` fields that ``reward_summary`` words itself instead of listing as changed weights."""
 
 
@@ -305,6 +305,9 @@ def reward_summary(meta: dict[str, Any]) -> str:
         over = reward.get("bar_ramp_over_m", table.bar_ramp_over_m)
         extra.append(("a bar-ramp term", f"up to {ramp} per s standing upright on four feet, rising over the "
                                          f"{width} m under a top {over} m over the goal bar"))
+    if under := reward.get("feet_under_hips") or 0.0:
+        extra.append(("a feet-under-hips term", f"−{under} per m²·s of the feet's squared horizontal offsets "
+                                                "from their leg roots, standing upright on four feet"))
     if extra:
         names = " and ".join(name for name, _ in extra)
         what = "; ".join(words for _, words in extra)

@@ -118,6 +118,10 @@ class RecoveryVecEnv(VecEnv):
         """Control steps each slot has stood upright on four feet under the goal bar without a
         break (with ``low_stance_leaky``: the leaky count of ``_low_stance_ended``)."""
         self.goal_bar_m = goal_height_m(cfg.goal, robot.leg_length_m)
+        if train.reward.feet_under_hips and robot.leg_roots_m is None:
+            raise ValueError(f"the feet_under_hips reward term needs the leg roots of robot {robot.name!r} "
+                             "(RobotSpec.leg_roots_m)")
+        self.leg_roots_m = None if robot.leg_roots_m is None else torch.as_tensor(robot.leg_roots_m)
         frames = train.distillation.student_history
         self.student_frames = ObsHistory(frames, group_dim("student"), num_envs) if frames > 1 else None
         """The last ``student_history`` student observations of each slot (group
@@ -237,8 +241,9 @@ class RecoveryVecEnv(VecEnv):
             target_height_m=self.target_height_m,
             in_goal=out.in_goal,
             stance=(upright_on_four_feet(out.state.roll, out.state.pitch, out.state.feet_contact, self.env.cfg.goal)
-                    if self.train_cfg.reward.bar_ramp else None),
+                    if self.train_cfg.reward.bar_ramp or self.train_cfg.reward.feet_under_hips else None),
             goal_bar_m=self.goal_bar_m,
+            leg_roots_m=self.leg_roots_m,
         )
         reward, terms = weighted_rewards(out.state, ctx, self.train_cfg.reward, self.dt)
 
