@@ -14,6 +14,8 @@ from selfright.robots.spec import RobotSpec
 
 LEGS = ("FR", "FL", "RR", "RL")
 _SIGN = {"FR": (1, -1), "FL": (1, 1), "RR": (-1, -1), "RL": (-1, 1)}
+_HIP_X, _HIP_Y = 0.183, 0.047  # abduction joint from the trunk origin (m), times the leg's signs
+_THIGH_Y = 0.08505  # thigh joint from the abduction joint, sideways (m), times the leg's y sign
 _ABD_RANGE = (-0.802851, 0.802851)
 _HIP_RANGE = (-1.0472, 4.18879)
 _KNEE_RANGE = (-2.69653, -0.916298)
@@ -28,11 +30,11 @@ def _leg_xml(leg: str) -> str:
     thigh_com = (-0.003237, -0.022327 * sy, -0.027326)
     f = lambda v: " ".join(f"{x:.6g}" for x in v)  # noqa: E731
     return f"""
-      <body name="{leg}_hip" pos="{f((0.183 * sx, 0.047 * sy, 0))}">
+      <body name="{leg}_hip" pos="{f((_HIP_X * sx, _HIP_Y * sy, 0))}">
         <inertial pos="{f(hip_com)}" mass="0.696" diaginertia="0.000807752 0.00055293 0.000468983"/>
         <joint name="{leg}_hip_joint" class="abduction"/>
         <geom name="{leg}_hip" class="robot" type="sphere" size="0.046"/>
-        <body name="{leg}_thigh" pos="{f((0, 0.08505 * sy, 0))}">
+        <body name="{leg}_thigh" pos="{f((0, _THIGH_Y * sy, 0))}">
           <inertial pos="{f(thigh_com)}" mass="1.013" diaginertia="0.00555739 0.00513936 0.00133944"/>
           <joint name="{leg}_thigh_joint" class="hip"/>
           <geom name="{leg}_thigh" class="robot" type="capsule" size="0.02" fromto="0 0 0 0 0 -0.2"/>
@@ -125,7 +127,7 @@ A1 = RobotSpec(
     # above the goal bar (the knee's upper limit is −0.92 rad).
     tall_pose=_per_leg((0.0, 0.5, -1.0)),
     leg_length_m=0.4,
-    leg_roots_m=np.array([(0.183 * _SIGN[leg][0], (0.047 + 0.08505) * _SIGN[leg][1], 0.0) for leg in LEGS]),
+    leg_roots_m=np.array([(_HIP_X * _SIGN[leg][0], (_HIP_Y + _THIGH_Y) * _SIGN[leg][1], 0.0) for leg in LEGS]),
     # Hip axis to foot centre in the stand pose, 2 × 0.2 m × cos 0.6, plus the 0.02 m foot
     # radius: 0.35 m (it settles at 0.336 m under PD sag at Kp 50), 3 cm above the 0.32 m bar.
     stand_height_m=0.35,
